@@ -1,0 +1,389 @@
+"""The ``rtcf`` command line: launch, graph and check launch files."""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import logging
+import os
+import signal
+import sys
+import time
+from collections.abc import Sequence
+from pathlib import Path
+from types import FrameType
+from typing import Any
+
+from . import __version__
+from ._clock import MonotonicClock, SimClock
+from ._deployment import Deployment, RunnerDeployment, plan
+from ._errors import ComponentError, LaunchError, RtcfError
+from ._graph import Graph, to_dot, to_mermaid
+from ._launch_xml import parse_launch_file
+from ._report import format_summary, kernel_preemption, timing_document, write_report
+from ._runner import Runner
+from ._substitutions import find_package
+
+EPILOG = """\
+examples:
+  rtcf launch rtcf_examples paper_evaluation.launch --duration 3
+  rtcf launch my_system.launch frequency:=500 --sim --duration 10
+  rtcf graph rtcf_examples complex_architecture.launch --format dot | dot -Tpng > g.png
+  rtcf check my_system.launch
+"""
+
+
+class _Formatter(logging.Formatter):
+    """ROS-like console lines: [LEVEL] [t=... #iteration] [/component]: message."""
+
+    def format(self, record: logging.LogRecord) -> str:
+        component = getattr(record, "rtcf_component", None)
+        level = "FATAL" if record.levelno >= logging.CRITICAL else record.levelname
+        if component is None:
+            return f"[{level}] [{record.name}]: {record.getMessage()}"
+        iteration = getattr(record, "rtcf_iteration", -1)
+        when = f" #{iteration}" if iteration >= 0 else ""
+        return f"[{level}]{when} [{component}]: {record.getMessage()}"
+
+
+def _setup_logging(level: str) -> None:
+    handler = logging.StreamHandler(sys.stderr)
+    handler.setFormatter(_Formatter())
+    root = logging.getLogger("rtcf")
+    root.handlers[:] = [handler]
+    root.setLevel(level.upper())
+    root.propagate = False
+
+
+def _say(text: str) -> None:
+    print(f"rtcf: {text}", file=sys.stderr, flush=True)
+
+
+def _split_target(words: Sequence[str]) -> tuple[str, dict[str, str]]:
+    """Return the launch file path and the name:=value args from the positional words."""
+    args: dict[str, str] = {}
+    rest: list[str] = []
+    for word in words:
+        if ":=" in word:
+            key, _, value = word.partition(":=")
+            if not key:
+                raise LaunchError(f"argument {word!r} has no name; write name:=value")
+            args[key] = value
+        else:
+            rest.append(word)
+    if len(rest) == 1:
+        path = rest[0]
+        if not os.path.exists(path):
+            raise LaunchError(f"launch file {path!r} does not exist")
+        return path, args
+    if len(rest) == 2:
+        package, name = rest
+        root = Path(find_package(package))
+        candidates = sorted(p for p in root.rglob(name) if p.is_file())
+        if not candidates:
+            raise LaunchError(f"package {package!r} ({root}) has no launch file {name!r}")
+        return str(candidates[0]), args
+    raise LaunchError(
+        "give one launch file (FILE, or PACKAGE FILE) and any number of name:=value arguments"
+    )
+
+
+def _load(words: Sequence[str]) -> Deployment:
+    path, args = _split_target(words)
+    deployment = plan(parse_launch_file(path, args))
+    for warning in deployment.warnings:
+        _say(f"warning: {warning}")
+    return deployment
+
+
+def _build_runner(
+    target: RunnerDeployment, deployment: Deployment, sim: bool, log_level: str = "info"
+) -> Runner:
+    runner = Runner(
+        target.settings,
+        clock=SimClock() if sim else MonotonicClock(),
+        parameters=deployment.parameters,
+        name=target.name,
+        log_level=log_level,
+    )
+    try:
+        for spec in target.components:
+            runner.load(spec)
+        runner.graph  # noqa: B018 - resolve now so graph errors surface before running
+    except BaseException as exc:
+        if isinstance(exc, RtcfError) and exc.file is None:
+            exc.file = deployment.source  # a graph error belongs to the whole file
+        for err in runner.shutdown():
+            _say(f"error: {err}")
+        raise
+    for warning in runner.graph.warnings:
+        _say(f"warning: {target.name}: {warning}")
+    return runner
+
+
+def _describe_graph(graph: Graph, runner: Runner) -> str:
+    settings = runner.settings
+    lines = [f"runner {runner.name}: {settings.frequency:g} Hz, mode {settings.mode}"]
+    lines.append(f"components ({len(graph.nodes)}):")
+    for node in sorted(graph.nodes, key=lambda n: graph.order.index(n.name)):
+        flags = " [is_first]" if node.is_first else ""
+        if node.ignore_pattern is not None:
+            flags += f" [topics_ignore_for_graph: {node.ignore_pattern.pattern}]"
+        lines.append(f"  {node.name} ({node.label}){flags}")
+        for p in node.inputs:
+            lines.append(f"    in  {p.name:<12} <- {p.topic} [{p.type.__name__}]")
+        for p in node.outputs:
+            lines.append(f"    out {p.name:<12} -> {p.topic} [{p.type.__name__}]")
+    lines.append(f"connections ({len(graph.edges)}):")
+    for e in sorted(graph.edges, key=lambda e: (e.topic, e.consumer.qualified_name)):
+        note = "" if e.orders else f"   (not ordered: {e.ignored_by}; one iteration late)"
+        lines.append(f"  {e.topic}: {e.producer.qualified_name} -> {e.consumer.qualified_name}{note}")
+    mapped_out = [p for n in graph.nodes for p in n.outputs if settings.maps_to_ros(p.topic)]
+    mapped_in = [p for p in graph.unconnected_inputs if settings.maps_to_ros(p.topic)]
+    if mapped_out or mapped_in:
+        lines.append("mapped to middleware topics (ros_mapping_whitelist/blacklist):")
+        lines.extend(f"  {p.topic} <- {p.qualified_name}" for p in mapped_out)
+        lines.extend(f"  {p.topic} -> {p.qualified_name}" for p in mapped_in)
+    unfed = [p for p in graph.unconnected_inputs if not settings.maps_to_ros(p.topic)]
+    if unfed:
+        lines.append("inputs with no producer (they read None):")
+        lines.extend(f"  {p.qualified_name} <- {p.topic}" for p in unfed)
+    lines.append("order: " + " -> ".join(graph.order))
+    return "\n".join(lines)
+
+
+def cmd_graph(ns: argparse.Namespace) -> int:
+    deployment = _load(ns.target)
+    for target in deployment.runners:
+        runner = _build_runner(target, deployment, sim=True)
+        try:
+            graph = runner.graph
+            if ns.format == "dot":
+                sys.stdout.write(to_dot(graph))
+            elif ns.format == "mermaid":
+                sys.stdout.write(to_mermaid(graph))
+            else:
+                print(_describe_graph(graph, runner))
+        finally:
+            runner.shutdown()
+    return 0
+
+
+def cmd_check(ns: argparse.Namespace) -> int:
+    deployment = _load(ns.target)
+    for target in deployment.runners:
+        runner = _build_runner(target, deployment, sim=True)
+        try:
+            reason = runner.not_ready_reason()
+            graph = runner.graph
+            if reason and target.settings.mode != "wait_for_trigger":
+                raise LaunchError(
+                    f"runner {target.name}: the loop would never start: {reason}",
+                    file=target.location.file,
+                    line=target.location.line,
+                )
+            print(
+                f"{deployment.source}: OK: runner {target.name}, {len(graph.nodes)} components, "
+                f"{len(graph.edges)} connections, order: " + " -> ".join(graph.order)
+            )
+        finally:
+            errors = runner.shutdown()
+        if errors:
+            raise errors[0]
+    return 0
+
+
+def cmd_launch(ns: argparse.Namespace) -> int:
+    deployment = _load(ns.target)
+    target = deployment.runner
+    settings = target.settings
+    runner = _build_runner(target, deployment, sim=ns.sim, log_level=ns.log_level)
+    status = 0
+    try:
+        reason = runner.not_ready_reason()
+        if settings.mode == "wait_for_trigger" and reason:
+            _say("mode wait_for_trigger: no middleware to trigger it, so the loop starts now")
+            runner.activate()
+            reason = runner.not_ready_reason()
+        if reason:
+            raise LaunchError(
+                f"runner {target.name}: the loop would never start: {reason}",
+                file=target.location.file,
+                line=target.location.line,
+            )
+        iterations = None if ns.duration is None else max(1, round(ns.duration * settings.frequency))
+        _say(
+            f"runner {target.name}: {len(runner.components)} components at "
+            f"{settings.frequency:g} Hz (mode {settings.mode}, wait_policy {settings.wait_policy})"
+        )
+        _say("order: " + " -> ".join(runner.order))
+        not_applied = [
+            key
+            for key, on in (
+                ("lock_memory", settings.lock_memory),
+                ("cpu_affinity_mask", settings.cpu_affinity_mask),
+                ("safe_heap_size_kB", settings.safe_heap_size_kB),
+                ("safe_stack_size_kB", settings.safe_stack_size_kB),
+            )
+            if on
+        ]
+        if not_applied and not ns.sim:
+            _say(
+                "note: the loop runs in this process with normal scheduling; "
+                f"{', '.join(not_applied)} and priority are not applied yet"
+            )
+        if iterations is None:
+            _say("running until Ctrl-C")
+        else:
+            _say(f"running {iterations} iterations ({'simulated' if ns.sim else 'real'} time)")
+        trace = _Trace(runner) if ns.trace else None
+        previous = _install_stop_handlers(runner)
+        started = time.perf_counter()
+        try:
+            result = runner.run(iterations, on_iteration=trace.sample if trace else None)
+        except ComponentError as exc:
+            _say(f"error: {exc}")
+            status = 1
+            result = None
+        finally:
+            wall = time.perf_counter() - started
+            _restore_handlers(previous)
+        if trace is not None:
+            trace.write(ns.trace)
+            _say(f"wrote {ns.trace} ({len(trace.rows)} iterations)")
+        if result is not None:
+            print(format_summary(result, settings, wall), flush=True)
+            if ns.report:
+                realtime = {
+                    "scheduler": "SCHED_OTHER",
+                    "priority": None,
+                    "mlockall": False,
+                    "cpu_affinity": sorted(os.sched_getaffinity(0)),
+                    "kernel_preemption": kernel_preemption(),
+                    "in_process": True,
+                }
+                path = write_report(ns.report, timing_document(result, settings, wall, realtime))
+                _say(f"wrote {path}")
+            if result.log_records_dropped:
+                _say(
+                    f"warning: {result.log_records_dropped} log records were dropped "
+                    "(the log ring was full); log less often from update()"
+                )
+    finally:
+        for err in runner.shutdown():
+            _say(f"error: {err}")
+            status = 1
+    return status
+
+
+class _Trace:
+    """Every output topic's value after every iteration (for --trace; not real-time)."""
+
+    def __init__(self, runner: Runner) -> None:
+        ports = sorted(
+            (p for c in runner.components.values() for p in c.outputs.values()),
+            key=lambda p: p.topic,
+        )
+        self.topics = [p.topic for p in ports]
+        self._slots = [p._slot for p in ports]
+        self._state = runner.state
+        self.rows: list[list[Any]] = []
+
+    def sample(self) -> None:
+        s = self._state
+        self.rows.append([s.iteration, s.time_ns, *(slot.value for slot in self._slots)])
+
+    def write(self, path: str) -> None:
+        with open(path, "w", newline="") as f:
+            out = csv.writer(f)
+            out.writerow(["iteration", "time_ns", *self.topics])
+            for row in self.rows:
+                out.writerow([row[0], row[1], *(_cell(v) for v in row[2:])])
+
+
+def _cell(value: Any) -> str:
+    return "" if value is None else repr(value) if isinstance(value, float) else str(value)
+
+
+def _install_stop_handlers(runner: Runner) -> dict[int, Any]:
+    def handler(signum: int, frame: FrameType | None) -> None:
+        if runner.stop_flag.requested:  # a second Ctrl-C: give up waiting
+            raise KeyboardInterrupt
+        _say(f"{signal.Signals(signum).name}: stopping after this iteration")
+        runner.request_stop()
+
+    previous = {}
+    for sig in (signal.SIGINT, signal.SIGTERM):
+        previous[sig] = signal.signal(sig, handler)
+    return previous
+
+
+def _restore_handlers(previous: dict[int, Any]) -> None:
+    for sig, old in previous.items():
+        signal.signal(sig, old)
+
+
+def build_parser() -> argparse.ArgumentParser:
+    parser = argparse.ArgumentParser(
+        prog="rtcf",
+        description="Run real-time components composed by ROS-style launch files.",
+        epilog=EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
+    parser.add_argument("--version", action="version", version=f"rtcf {__version__}")
+    parser.add_argument("--debug", action="store_true", help="show tracebacks of errors")
+    sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
+    target_help = "FILE or PACKAGE FILE, then name:=value launch arguments"
+
+    launch = sub.add_parser("launch", help="run a launch file", epilog=EPILOG,
+                            formatter_class=argparse.RawDescriptionHelpFormatter)
+    launch.add_argument("target", nargs="+", metavar="TARGET", help=target_help)
+    launch.add_argument("--duration", type=_positive_float, metavar="SECONDS",
+                        help="run frequency x SECONDS iterations, then stop (default: until Ctrl-C)")
+    launch.add_argument("--sim", action="store_true",
+                        help="run on a simulated clock as fast as possible (deterministic)")
+    launch.add_argument("--report", metavar="DIR", help="write timing.json into DIR")
+    launch.add_argument("--trace", metavar="CSV",
+                        help="write every output topic's value after every iteration to CSV")
+    launch.add_argument("--log-level", default="info",
+                        choices=["debug", "info", "warning", "error"],
+                        help="lowest level of component log records shown (default info)")
+    launch.set_defaults(func=cmd_launch)
+
+    graph = sub.add_parser("graph", help="print components, connections and execution order")
+    graph.add_argument("target", nargs="+", metavar="TARGET", help=target_help)
+    graph.add_argument("--format", choices=["text", "dot", "mermaid"], default="text")
+    graph.set_defaults(func=cmd_graph, log_level="warning")
+
+    check = sub.add_parser("check", help="validate a launch file without running it")
+    check.add_argument("target", nargs="+", metavar="TARGET", help=target_help)
+    check.set_defaults(func=cmd_check, log_level="warning")
+    return parser
+
+
+def _positive_float(text: str) -> float:
+    value = float(text)
+    if not value > 0:
+        raise argparse.ArgumentTypeError(f"{text} is not a positive number of seconds")
+    return value
+
+
+def main(argv: Sequence[str] | None = None) -> int:
+    ns = build_parser().parse_args(argv)
+    _setup_logging(ns.log_level)
+    if ns.debug:
+        os.environ.setdefault("RTCF_DEBUG", "1")
+    try:
+        return int(ns.func(ns))
+    except RtcfError as exc:
+        if ns.debug:
+            raise
+        _say(f"error: {exc}")
+        return 1
+    except KeyboardInterrupt:
+        _say("interrupted")
+        return 130
+
+
+if __name__ == "__main__":
+    sys.exit(main())

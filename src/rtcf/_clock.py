@@ -1,0 +1,116 @@
+"""Clocks for the loop: the monotonic system clock, and a simulated one for tests.
+
+The loop asks a clock for the time (``now_ns``) and to sleep until an absolute
+deadline (``sleep_until_ns``). The system clock sleeps with ``clock_nanosleep``
+and ``TIMER_ABSTIME`` on CLOCK_MONOTONIC, so a late wake-up does not shift the
+next deadline. A :class:`SimClock` only moves when the loop sleeps, so any
+number of iterations run in milliseconds, deterministically.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import ctypes.util
+import errno
+import time
+from collections.abc import Callable
+from typing import Protocol
+
+CLOCK_MONOTONIC = time.CLOCK_MONOTONIC
+TIMER_ABSTIME = 1
+
+
+class Clock(Protocol):
+    simulated: bool
+
+    def now_ns(self) -> int: ...
+
+    def sleep_until_ns(self, deadline_ns: int) -> None: ...
+
+
+class _Timespec(ctypes.Structure):
+    _fields_ = [("tv_sec", ctypes.c_long), ("tv_nsec", ctypes.c_long)]
+
+
+def _load_clock_nanosleep() -> Callable[..., int] | None:
+    try:
+        libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6", use_errno=True)
+        fn = libc.clock_nanosleep
+    except (OSError, AttributeError):
+        return None
+    fn.argtypes = [ctypes.c_int, ctypes.c_int, ctypes.POINTER(_Timespec), ctypes.c_void_p]
+    fn.restype = ctypes.c_int
+    return fn  # type: ignore[no-any-return]
+
+
+class MonotonicClock:
+    """CLOCK_MONOTONIC with absolute-deadline sleeps (falls back to time.sleep)."""
+
+    simulated = False
+
+    def __init__(self) -> None:
+        self._nanosleep = _load_clock_nanosleep()
+        self._ts = _Timespec()
+        self._ts_ptr = ctypes.pointer(self._ts)
+        self.now_ns = time.monotonic_ns  # type: ignore[method-assign]
+
+    @property
+    def uses_clock_nanosleep(self) -> bool:
+        return self._nanosleep is not None
+
+    def now_ns(self) -> int:  # replaced per instance by time.monotonic_ns
+        return time.monotonic_ns()
+
+    def sleep_until_ns(self, deadline_ns: int) -> None:
+        fn = self._nanosleep
+        if fn is None:
+            delay = deadline_ns - time.monotonic_ns()
+            if delay > 0:
+                time.sleep(delay * 1e-9)
+            return
+        ts = self._ts
+        ts.tv_sec, ts.tv_nsec = divmod(deadline_ns, 1_000_000_000)
+        # EINTR: a signal arrived; return so the loop can look at its stop flag
+        rc = fn(CLOCK_MONOTONIC, TIMER_ABSTIME, self._ts_ptr, None)
+        if rc not in (0, errno.EINTR):
+            raise OSError(rc, "clock_nanosleep failed")
+
+
+class SimClock:
+    """A simulated clock: time advances only when the loop sleeps.
+
+    ``cost_ns`` (a callable of the call count, or None) makes ``now_ns`` advance by
+    a given amount on each call, so tests can simulate calculation time, late
+    wake-ups and overruns exactly.
+    """
+
+    simulated = True
+
+    def __init__(
+        self,
+        start_ns: int = 0,
+        *,
+        wake_latency_ns: Callable[[int], int] | None = None,
+        cost_ns: Callable[[int], int] | None = None,
+    ) -> None:
+        self._now = start_ns
+        self._wake_latency = wake_latency_ns
+        self._cost = cost_ns
+        self._sleeps = 0
+        self._reads = 0
+
+    def now_ns(self) -> int:
+        if self._cost is not None:
+            self._now += self._cost(self._reads)
+            self._reads += 1
+        return self._now
+
+    def sleep_until_ns(self, deadline_ns: int) -> None:
+        if deadline_ns > self._now:
+            self._now = deadline_ns
+        if self._wake_latency is not None:
+            self._now += self._wake_latency(self._sleeps)
+        self._sleeps += 1
+
+    def advance(self, ns: int) -> None:
+        self._now += ns

@@ -1,0 +1,183 @@
+"""The component: the smallest reusable unit, with a lifecycle and typed ports.
+
+Write one by subclassing :class:`Component` and overriding the hooks you need::
+
+    class Gain(rtcf.Component):
+        def configure(self):
+            self.inp = self.add_input("in", float)
+            self.out = self.add_output("out", float)
+            self.k = self.params.get("~gain", 2.0)
+
+        def update(self):
+            x = self.inp.read()
+            if x is not None:
+                self.out.write(self.k * x)
+
+Hooks (all optional): ``configure`` (add ports, read parameters), ``start`` (just
+before the loop first runs it), ``update`` (once per iteration, real-time),
+``stop`` and ``cleanup``. A hook that returns False or raises has failed.
+A component whose ``update`` is not overridden costs nothing in the loop.
+"""
+
+from __future__ import annotations
+
+from typing import Any, TypeVar
+
+from ._errors import ComponentError
+from ._log import ComponentLogger, LogRing
+from ._loop_state import LoopState
+from ._names import Resolver, join, validate_name
+from ._params import ParameterStore, Params
+from ._ports import InputPort, OutputPort
+
+T = TypeVar("T")
+
+
+class Component:
+    """Base class of real-time components (the original's ``RTT::TaskContext``)."""
+
+    name: str
+    namespace: str
+    params: Params
+    log: ComponentLogger
+
+    def __init__(self) -> None:
+        # Constructed by a runner, the context is attached before __init__ runs; a
+        # component constructed directly (in a unit test) gets a context of its own.
+        if not hasattr(self, "_rtcf_state"):
+            _attach(
+                self,
+                name=type(self).__name__,
+                namespace="/",
+                resolver=Resolver("/", type(self).__name__),
+                store=ParameterStore(),
+                ring=LogRing(256),
+                state=LoopState(),
+            )
+
+    # -- hooks --------------------------------------------------------------
+    def configure(self) -> bool | None:
+        """Add ports and read parameters. Runs once, when the component is loaded."""
+        return None
+
+    def start(self) -> bool | None:
+        """Prepare to run; called before the first ``update`` after loading."""
+        return None
+
+    def update(self) -> None:
+        """One iteration of work. Real-time: no blocking calls, no I/O."""
+
+    def stop(self) -> None:
+        """The loop will no longer call ``update`` (the component is unloaded or the
+        runner stops)."""
+
+    def cleanup(self) -> None:
+        """Release what ``configure`` acquired."""
+
+    # -- ports ----------------------------------------------------------------
+    def add_input(self, name: str, type_: type[T]) -> InputPort[T]:
+        """Declare an input port (in ``configure``); its topic is ``name`` resolved."""
+        port: InputPort[T] = InputPort(self.full_name, name, type_)
+        self._rtcf_add_port(port, self._rtcf_inputs)
+        return port
+
+    def add_output(self, name: str, type_: type[T]) -> OutputPort[T]:
+        """Declare an output port (in ``configure``); its topic is ``name`` resolved."""
+        port: OutputPort[T] = OutputPort(self.full_name, name, type_)
+        self._rtcf_add_port(port, self._rtcf_outputs)
+        return port
+
+    def _rtcf_add_port(self, port: Any, table: dict[str, Any]) -> None:
+        what = f"component {self.full_name!r}: port name"
+        if self._rtcf_state.running:
+            raise ComponentError(
+                f"component {self.full_name!r}: add_input/add_output called while the loop "
+                "runs; declare ports in configure()",
+                component=self.full_name,
+            )
+        if not isinstance(port.type, type):
+            raise ComponentError(
+                f"component {self.full_name!r}: port {port.name!r} has type {port.type!r}, "
+                "which is not a class; pass a class such as float or a message type",
+                component=self.full_name,
+            )
+        problem = validate_name(port.name, what=what)
+        if problem:
+            raise ComponentError(problem, component=self.full_name)
+        if port.name in self._rtcf_inputs or port.name in self._rtcf_outputs:
+            raise ComponentError(
+                f"component {self.full_name!r}: port {port.name!r} is declared twice; "
+                "give each port a unique name",
+                component=self.full_name,
+            )
+        port.topic = self._rtcf_resolver.resolve(port.name)
+        table[port.name] = port
+
+    @property
+    def inputs(self) -> dict[str, InputPort[Any]]:
+        """The input ports by name (a copy)."""
+        return dict(self._rtcf_inputs)
+
+    @property
+    def outputs(self) -> dict[str, OutputPort[Any]]:
+        """The output ports by name (a copy)."""
+        return dict(self._rtcf_outputs)
+
+    # -- loop information (the original's getTime/getIteration/getFrequency) --
+    @property
+    def full_name(self) -> str:
+        return join(self.namespace, self.name)
+
+    @property
+    def iteration(self) -> int:
+        """Index of the current iteration, from 0 (-1 before the loop first ran)."""
+        return self._rtcf_state.iteration
+
+    @property
+    def time(self) -> float:
+        """Scheduled start of the current iteration in seconds since the loop started."""
+        return self._rtcf_state.time_ns * 1e-9
+
+    @property
+    def time_ns(self) -> int:
+        return self._rtcf_state.time_ns
+
+    @property
+    def frequency(self) -> float:
+        """The loop's frequency in Hz."""
+        return self._rtcf_state.frequency
+
+    @property
+    def period(self) -> float:
+        """The loop's period in seconds."""
+        return self._rtcf_state.period_ns * 1e-9
+
+    def __repr__(self) -> str:
+        return f"<{type(self).__name__} {self.full_name}>"
+
+
+def _attach(
+    component: Component,
+    *,
+    name: str,
+    namespace: str,
+    resolver: Resolver,
+    store: ParameterStore,
+    ring: LogRing,
+    state: LoopState,
+) -> None:
+    """Give ``component`` its identity and its access to the runner (before __init__)."""
+    component.name = name
+    component.namespace = namespace
+    full = join(namespace, name)
+    component.params = Params(store, resolver, full)
+    component.log = ComponentLogger(full, ring, state)
+    component._rtcf_state = state  # type: ignore[attr-defined]
+    component._rtcf_resolver = resolver  # type: ignore[attr-defined]
+    component._rtcf_inputs = {}  # type: ignore[attr-defined]
+    component._rtcf_outputs = {}  # type: ignore[attr-defined]
+
+
+def overrides(component: Component, hook: str) -> bool:
+    """Whether ``component``'s class overrides ``hook`` of the base class."""
+    return getattr(type(component), hook) is not getattr(Component, hook)

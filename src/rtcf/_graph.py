@@ -1,0 +1,235 @@
+"""The data-flow graph: connections between ports, and the execution order.
+
+Ports are connected when their resolved topic names are equal. The execution
+order is a topological sort with Kahn's algorithm; among the components that are
+ready at the same time, the one whose full name sorts first (plain string order)
+runs first, so the order never depends on load order or hashing.
+
+An edge is left out of the ordering (but still carries data, one iteration late)
+when its consumer has ``is_first`` set, or when its topic fully matches the
+consumer's ``topics_ignore_for_graph`` pattern.
+"""
+
+from __future__ import annotations
+
+import heapq
+import re
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+from ._errors import GraphError
+
+
+@dataclass(frozen=True)
+class PortInfo:
+    component: str
+    name: str
+    topic: str
+    type: type[Any]
+
+    @property
+    def qualified_name(self) -> str:
+        return f"{self.component}.{self.name}"
+
+
+@dataclass
+class GraphNode:
+    """What the graph needs to know of one component."""
+
+    name: str  # full name
+    inputs: list[PortInfo] = field(default_factory=list)
+    outputs: list[PortInfo] = field(default_factory=list)
+    is_first: bool = False
+    ignore_pattern: re.Pattern[str] | None = None
+    label: str = ""  # e.g. the class name, for printing
+
+
+@dataclass(frozen=True)
+class Edge:
+    """One connection: ``producer`` output to ``consumer`` input on ``topic``."""
+
+    topic: str
+    producer: PortInfo
+    consumer: PortInfo
+    ignored_by: str | None = None  # None, "is_first" or "topics_ignore_for_graph"
+
+    @property
+    def orders(self) -> bool:
+        """Whether this edge constrains the execution order."""
+        return self.ignored_by is None
+
+
+@dataclass
+class Graph:
+    nodes: list[GraphNode]
+    edges: list[Edge]
+    order: list[str]
+    unconnected_inputs: list[PortInfo]
+    unconsumed_outputs: list[PortInfo]
+    warnings: list[str] = field(default_factory=list)
+
+    def topics(self) -> list[str]:
+        names = {p.topic for n in self.nodes for p in (*n.inputs, *n.outputs)}
+        return sorted(names)
+
+
+def types_compatible(produced: type[Any], consumed: type[Any]) -> bool:
+    """An input accepts its own type, a subclass of it, or anything if it is ``object``."""
+    return consumed is object or produced is consumed or issubclass(produced, consumed)
+
+
+def build_graph(nodes: Sequence[GraphNode]) -> Graph:
+    """Connect ports by topic, check types and producers, and order the components."""
+    names = [n.name for n in nodes]
+    dupes = sorted({n for n in names if names.count(n) > 1})
+    if dupes:
+        raise GraphError(f"component {dupes[0]!r} is loaded twice; give each a unique name")
+
+    producers: dict[str, list[PortInfo]] = {}
+    consumers: dict[str, list[PortInfo]] = {}
+    for node in nodes:
+        for p in node.outputs:
+            producers.setdefault(p.topic, []).append(p)
+        for p in node.inputs:
+            consumers.setdefault(p.topic, []).append(p)
+
+    warnings: list[str] = []
+    for topic, prods in sorted(producers.items()):
+        if len(prods) > 1:
+            who = ", ".join(p.qualified_name for p in prods)
+            if topic in consumers:
+                raise GraphError(
+                    f"topic {topic!r} has {len(prods)} producers ({who}); a topic may have one "
+                    "producer: remap all but one of these outputs to other topics"
+                )
+            warnings.append(
+                f"topic {topic!r} is written by {len(prods)} outputs ({who}) and read by none; "
+                "the values are lost: remap the outputs to distinct topics"
+            )
+
+    by_name = {n.name: n for n in nodes}
+    edges: list[Edge] = []
+    unconnected: list[PortInfo] = []
+    for node in nodes:
+        for inp in node.inputs:
+            prods = producers.get(inp.topic)
+            if not prods:
+                unconnected.append(inp)
+                continue
+            out = prods[0]
+            if not types_compatible(out.type, inp.type):
+                raise GraphError(
+                    f"type mismatch on topic {inp.topic!r}: output {out.qualified_name} is "
+                    f"{_type_name(out.type)} but input {inp.qualified_name} is "
+                    f"{_type_name(inp.type)}; make both ports the same type or remap one"
+                )
+            ignored_by = None
+            if node.is_first:
+                ignored_by = "is_first"
+            elif node.ignore_pattern is not None and node.ignore_pattern.fullmatch(inp.topic):
+                ignored_by = "topics_ignore_for_graph"
+            edges.append(Edge(inp.topic, out, inp, ignored_by))
+
+    unconsumed = [p for n in nodes for p in n.outputs if p.topic not in consumers]
+    order = kahn_order(names, ((e.producer.component, e.consumer.component, e.topic)
+                               for e in edges if e.orders), by_name)
+    return Graph(list(nodes), edges, order, unconnected, unconsumed, warnings)
+
+
+def kahn_order(
+    names: Sequence[str],
+    edges: Iterable[tuple[str, str, str]],
+    nodes: dict[str, GraphNode] | None = None,
+) -> list[str]:
+    """Topological order of ``names`` under ``edges`` (producer, consumer, topic).
+
+    Ties go to the smallest name. A self-edge (a component reading its own output)
+    is a cycle too. Raises GraphError naming a cycle if there is one.
+    """
+    preds: dict[str, dict[str, str]] = {n: {} for n in names}
+    succs: dict[str, set[str]] = {n: set() for n in names}
+    for src, dst, topic in edges:
+        preds[dst].setdefault(src, topic)
+        succs[src].add(dst)
+    missing = {n: len(p) for n, p in preds.items()}
+    ready = [n for n, k in missing.items() if k == 0]
+    heapq.heapify(ready)
+    order: list[str] = []
+    while ready:
+        n = heapq.heappop(ready)
+        order.append(n)
+        for m in succs[n]:
+            missing[m] -= 1
+            if missing[m] == 0:
+                heapq.heappush(ready, m)
+    if len(order) != len(names):
+        left = sorted(n for n in names if missing[n] > 0)
+        raise GraphError(_describe_cycle(_find_cycle(left, preds), nodes))
+    return order
+
+
+def _find_cycle(left: list[str], preds: dict[str, dict[str, str]]) -> list[tuple[str, str]]:
+    """Return one cycle among ``left`` as [(component, topic it writes to the next), ...]."""
+    remaining = set(left)
+    node = left[0]
+    path: list[str] = []
+    seen: dict[str, int] = {}
+    while node not in seen:
+        seen[node] = len(path)
+        path.append(node)
+        node = min(p for p in preds[node] if p in remaining)
+    cycle = path[seen[node] :]
+    cycle.reverse()  # we walked backwards along predecessors
+    return [(c, preds[cycle[(i + 1) % len(cycle)]][c]) for i, c in enumerate(cycle)]
+
+
+def _describe_cycle(cycle: list[tuple[str, str]], nodes: dict[str, GraphNode] | None) -> str:
+    start = min(range(len(cycle)), key=lambda i: cycle[i][0])
+    cycle = cycle[start:] + cycle[:start]
+    chain = " ".join(f"{c} -[{t}]->" for c, t in cycle) + f" {cycle[0][0]}"
+    first, first_topic_in = cycle[0][0], cycle[-1][1]
+    return (
+        f"cycle in the data flow: {chain}; break it with is_first on one of these components "
+        f"(e.g. is_first on {first}), or with topics_ignore_for_graph on a consumer "
+        f"(e.g. topics_ignore_for_graph: '{re.escape(first_topic_in)}' on {first})"
+    )
+
+
+def _type_name(t: type[Any]) -> str:
+    mod = getattr(t, "__module__", "")
+    return t.__qualname__ if mod in ("builtins", "") else f"{mod}.{t.__qualname__}"
+
+
+def to_dot(graph: Graph) -> str:
+    """Graphviz DOT: components as boxes, connections labelled with their topic;
+    edges left out of the ordering are dashed."""
+    rank = {n: i for i, n in enumerate(graph.order)}
+    lines = ["digraph rtcf {", "  rankdir=LR;", '  node [shape=box, fontname="Helvetica"];']
+    for node in sorted(graph.nodes, key=lambda n: rank.get(n.name, 0)):
+        label = f"{node.name}\\n{node.label} (#{rank[node.name] + 1})"
+        if node.is_first:
+            label += "\\nis_first"
+        lines.append(f'  "{node.name}" [label="{label}"];')
+    for e in graph.edges:
+        style = ', style=dashed, constraint=false' if not e.orders else ""
+        lines.append(
+            f'  "{e.producer.component}" -> "{e.consumer.component}" '
+            f'[label="{e.topic}"{style}];'
+        )
+    lines.append("}")
+    return "\n".join(lines) + "\n"
+
+
+def to_mermaid(graph: Graph) -> str:
+    """Mermaid flowchart; edges left out of the ordering are dotted."""
+    ids = {n.name: f"c{i}" for i, n in enumerate(graph.nodes)}
+    rank = {n: i for i, n in enumerate(graph.order)}
+    lines = ["flowchart LR"]
+    for node in graph.nodes:
+        extra = " is_first" if node.is_first else ""
+        lines.append(f'  {ids[node.name]}["{node.name}<br/>{node.label} #{rank[node.name] + 1}{extra}"]')
+    for e in graph.edges:
+        arrow = "-.->" if not e.orders else "-->"
+        lines.append(f'  {ids[e.producer.component]} {arrow}|"{e.topic}"| {ids[e.consumer.component]}')
+    return "\n".join(lines) + "\n"

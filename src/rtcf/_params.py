@@ -1,0 +1,127 @@
+"""Parameters: a ROS-style hierarchical parameter tree and a component's view of it.
+
+The tree is stored as flat leaves, ``{"/ns/node/gain": 2.0}``. Setting a dict sets
+its leaves; getting a namespace assembles a dict, as the ROS 1 parameter server does.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator, Mapping
+from typing import Any
+
+from ._errors import ConfigurationError
+from ._names import Resolver, normalize_namespace
+
+_MISSING: Any = object()
+
+
+class ParameterStore:
+    """A parameter tree keyed by absolute names (the launch file's parameter server)."""
+
+    def __init__(self, values: Mapping[str, Any] | None = None) -> None:
+        self._leaves: dict[str, Any] = {}
+        for name, value in (values or {}).items():
+            self.set(name, value)
+
+    def set(self, name: str, value: Any) -> None:
+        """Set absolute ``name``; a dict value replaces the whole subtree under it."""
+        key = normalize_namespace(name)
+        self.delete(key)
+        if isinstance(value, Mapping) and value:
+            for sub, subvalue in value.items():
+                self.set(key.rstrip("/") + "/" + str(sub), subvalue)
+        else:
+            self._leaves[key] = value
+
+    def delete(self, name: str) -> None:
+        key = normalize_namespace(name)
+        prefix = key.rstrip("/") + "/"
+        for leaf in [k for k in self._leaves if k == key or k.startswith(prefix)]:
+            del self._leaves[leaf]
+
+    def has(self, name: str) -> bool:
+        key = normalize_namespace(name)
+        prefix = key.rstrip("/") + "/"
+        return key in self._leaves or any(k.startswith(prefix) for k in self._leaves)
+
+    def get(self, name: str, default: Any = _MISSING) -> Any:
+        """Return the value at absolute ``name`` (a dict for a namespace)."""
+        key = normalize_namespace(name)
+        if key in self._leaves:
+            return self._leaves[key]
+        prefix = key.rstrip("/") + "/"
+        sub = {k[len(prefix) :]: v for k, v in self._leaves.items() if k.startswith(prefix)}
+        if not sub:
+            if default is _MISSING:
+                raise KeyError(key)
+            return default
+        tree: dict[str, Any] = {}
+        for rel, value in sorted(sub.items()):
+            node = tree
+            *parents, leaf = rel.split("/")
+            for part in parents:
+                node = node.setdefault(part, {})
+            node[leaf] = value
+        return tree
+
+    def update(self, other: ParameterStore) -> None:
+        for name, value in other.items():
+            self._leaves[name] = value
+
+    def items(self) -> Iterator[tuple[str, Any]]:
+        return iter(sorted(self._leaves.items()))
+
+    def names(self) -> list[str]:
+        return sorted(self._leaves)
+
+    def as_dict(self) -> dict[str, Any]:
+        return dict(self.items())
+
+    def __len__(self) -> int:
+        return len(self._leaves)
+
+    def __repr__(self) -> str:
+        return f"ParameterStore({self.as_dict()!r})"
+
+
+class Params:
+    """A component's access to parameters, with ROS name rules.
+
+    ``~name`` is private (under the component's own name), ``name`` is relative to
+    the component's namespace, ``/name`` is absolute. Read them in ``configure``.
+    """
+
+    __slots__ = ("_component", "_resolver", "_store")
+
+    def __init__(self, store: ParameterStore, resolver: Resolver, component: str) -> None:
+        self._store = store
+        self._resolver = resolver
+        self._component = component
+
+    def resolve(self, name: str) -> str:
+        """Return the absolute name that ``name`` stands for."""
+        return self._resolver.expand(name)
+
+    def has(self, name: str) -> bool:
+        """Whether a parameter (or a namespace of them) exists at ``name``."""
+        return self._store.has(self.resolve(name))
+
+    def get(self, name: str, default: Any = _MISSING) -> Any:
+        """Return the parameter at ``name``, or ``default`` when it is not set.
+
+        Without a default, a missing parameter is an error that names it.
+        """
+        full = self.resolve(name)
+        try:
+            return self._store.get(full)
+        except KeyError:
+            if default is _MISSING:
+                raise ConfigurationError(
+                    f"component {self._component!r}: parameter {full!r} (asked as {name!r}) "
+                    "is not set; set it in the launch file or pass a default"
+                ) from None
+            return default
+
+    def set(self, name: str, value: Any) -> None:
+        """Set a parameter (non-real-time: call it from configure or start)."""
+        self._store.set(self.resolve(name), value)

@@ -1,0 +1,101 @@
+"""What a run prints and writes: the order, the timing summary, timing.json."""
+
+from __future__ import annotations
+
+import json
+import os
+import platform
+from pathlib import Path
+from typing import Any
+
+from ._runner import RunResult
+from ._settings import RunnerSettings
+
+_COLUMNS = ("min", "p50", "p99", "p999", "max")
+
+
+def kernel_preemption() -> str:
+    """The kernel's preemption model, read from /sys/kernel/realtime and uname -v."""
+    try:
+        if Path("/sys/kernel/realtime").read_text().strip() == "1":
+            return "PREEMPT_RT"
+    except OSError:
+        pass
+    version = platform.version()
+    for model in ("PREEMPT_RT", "PREEMPT_DYNAMIC", "PREEMPT"):
+        if model in version:
+            return model
+    return "unknown"
+
+
+def format_summary(result: RunResult, settings: RunnerSettings, wall_s: float) -> str:
+    """A few lines that say what ran and how its timing looked."""
+    t = result.timing
+    clock = "simulated clock" if result.simulated else "system clock"
+    lines = [
+        f"ran {result.iterations} iterations at {settings.frequency:g} Hz on the {clock} "
+        f"in {wall_s:.3f} s of wall time; overruns: {t.overruns}; "
+        f"log records dropped: {result.log_records_dropped}"
+    ]
+    if result.simulated:
+        rate = result.iterations / wall_s if wall_s > 0 else float("inf")
+        lines.append(
+            f"  simulated time: {result.iterations / settings.frequency:.3f} s "
+            f"({rate:,.0f} iterations per second of wall time); timing is not measured"
+        )
+        return "\n".join(lines)
+    if not t.calc_us:
+        return "\n".join(lines)
+    labels = ("min", "p50", "p99", "p99.9", "max")
+    lines.append("  {:<28}".format("timing [µs]") + "".join(f"{c:>10}" for c in labels))
+
+    def row(label: str, stats: dict[str, float]) -> str:
+        return f"  {label:<28}" + "".join(f"{stats.get(c, float('nan')):>10.1f}" for c in _COLUMNS)
+
+    lines.append(row("wake-up jitter", t.jitter_us))
+    lines.append(row("calculation (iteration)", t.calc_us))
+    for name, stats in t.components_us.items():
+        lines.append(row(f"  {name}", stats))
+    note = t.merge_note()
+    if note:
+        lines.append(f"  ({note})")
+    return "\n".join(lines)
+
+
+def timing_document(
+    result: RunResult, settings: RunnerSettings, wall_s: float, realtime: dict[str, Any]
+) -> dict[str, Any]:
+    t = result.timing
+    keep = ("min", "p50", "p99", "p999", "max", "mean")
+    return {
+        "frequency_hz": settings.frequency,
+        "iterations": result.iterations,
+        "overruns": t.overruns,
+        "duration_s": result.iterations / settings.frequency,
+        "wall_time_s": wall_s,
+        "simulated": result.simulated,
+        "order": result.order,
+        "realtime": realtime,
+        "jitter_us": {k: t.jitter_us.get(k) for k in keep} if t.jitter_us else {},
+        "calc_us": {k: t.calc_us.get(k) for k in keep} if t.calc_us else {},
+        "components": {
+            name: {"calc_us": {k: stats.get(k) for k in keep}}
+            for name, stats in t.components_us.items()
+        },
+        "samples": t.samples,
+        "log_records_dropped": result.log_records_dropped,
+        "machine": {
+            "cores": os.cpu_count(),
+            "kernel": platform.release(),
+            "python": platform.python_version(),
+            "load_1min": os.getloadavg()[0] if hasattr(os, "getloadavg") else None,
+        },
+    }
+
+
+def write_report(directory: str | os.PathLike[str], document: dict[str, Any]) -> Path:
+    out = Path(directory)
+    out.mkdir(parents=True, exist_ok=True)
+    path = out / "timing.json"
+    path.write_text(json.dumps(document, indent=2) + "\n")
+    return path

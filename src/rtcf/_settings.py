@@ -1,0 +1,183 @@
+"""The runner's parameters, with the names and meanings of the original rt_runner."""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+from ._errors import ConfigurationError
+
+MODES = ("wait_for_components", "no_wait", "wait_for_trigger")
+WAIT_POLICIES = ("absolute", "relative")
+DEFAULT_FREQUENCY = 1.0
+
+
+@dataclass
+class RunnerSettings:
+    """How a runner runs its loop.
+
+    ``mode``: ``no_wait`` starts the loop as soon as a component is loaded and
+    restarts it after every load and unload; ``wait_for_components`` starts it once
+    ``num_components_expected`` components are loaded; ``wait_for_trigger`` starts
+    it on ``activate()`` (a service call under ROS).
+    ``wait_policy``: ``absolute`` keeps every iteration on the grid of the first
+    (late iterations run back to back until the loop has caught up); ``relative``
+    re-anchors the grid after an overrun: the next start is one period after it ended.
+    ``ros_mapping_whitelist``/``ros_mapping_blacklist``: full-match regexes on topic
+    names that choose the ports mapped to middleware topics.
+    """
+
+    mode: str = "no_wait"
+    num_components_expected: int = 0
+    frequency: float = DEFAULT_FREQUENCY
+    wait_policy: str = "absolute"
+    ros_mapping_whitelist: str = ""
+    ros_mapping_blacklist: str = ""
+    lock_memory: bool = False
+    safe_heap_size_kB: int = 0
+    safe_stack_size_kB: int = 0
+    cpu_affinity_mask: int = 0  # 0: leave the affinity as it is
+    priority: int = 80
+    notes: list[str] = field(default_factory=list, compare=False)
+
+    def __post_init__(self) -> None:
+        self.validate()
+
+    @property
+    def period_ns(self) -> int:
+        return round(1e9 / self.frequency)
+
+    def maps_to_ros(self, topic: str) -> bool:
+        """Whether ``topic`` matches the whitelist and not the blacklist."""
+        if not self.ros_mapping_whitelist or not re.fullmatch(self.ros_mapping_whitelist, topic):
+            return False
+        return not (self.ros_mapping_blacklist and re.fullmatch(self.ros_mapping_blacklist, topic))
+
+    def validate(self, where: str = "runner") -> None:
+        def bad(msg: str) -> ConfigurationError:
+            return ConfigurationError(f"{where}: {msg}")
+
+        if self.mode not in MODES:
+            raise bad(f"mode {self.mode!r} is unknown; use one of {', '.join(MODES)}")
+        if self.mode == "wait_for_components" and self.num_components_expected <= 0:
+            raise bad(
+                "mode 'wait_for_components' needs num_components_expected, a number above 0"
+            )
+        if not (self.frequency > 0 and self.frequency < 1e6):
+            raise bad(f"frequency {self.frequency!r} Hz is not feasible; use a value in (0, 1e6)")
+        if self.wait_policy not in WAIT_POLICIES:
+            raise bad(f"wait_policy {self.wait_policy!r} is unknown; use absolute or relative")
+        for key in ("ros_mapping_whitelist", "ros_mapping_blacklist"):
+            pattern = getattr(self, key)
+            try:
+                re.compile(pattern)
+            except re.error as exc:
+                raise bad(f"{key} {pattern!r} is not a valid regular expression: {exc}") from None
+        for key in ("safe_heap_size_kB", "safe_stack_size_kB", "cpu_affinity_mask"):
+            if getattr(self, key) < 0:
+                raise bad(f"{key} must not be negative")
+        if not 1 <= self.priority <= 99:
+            raise bad(f"priority {self.priority} is out of range; SCHED_FIFO takes 1 to 99")
+
+    @classmethod
+    def from_params(cls, params: Mapping[str, Any], where: str = "runner") -> RunnerSettings:
+        """Read settings from a runner node's private parameters (unknown ones noted)."""
+        notes: list[str] = []
+        values: dict[str, Any] = {}
+        for key, value in params.items():
+            if key not in _CONVERTERS:
+                if key not in _IGNORED:
+                    notes.append(
+                        f"{where}: unknown parameter {key!r} ignored; known are "
+                        + ", ".join(sorted(_CONVERTERS))
+                    )
+                continue
+            try:
+                values[key] = _CONVERTERS[key](value)
+            except (TypeError, ValueError):
+                raise ConfigurationError(
+                    f"{where}: parameter {key!r} has value {value!r}, which is not "
+                    f"{_EXPECTED[key]}"
+                ) from None
+        if "mode" not in values:
+            notes.append(f"{where}: no mode given, using 'no_wait'")
+        if "frequency" not in values:
+            notes.append(f"{where}: no frequency given, using {DEFAULT_FREQUENCY} Hz")
+        if "mode" in values:
+            values["mode"] = values["mode"].lower()
+        settings = cls.__new__(cls)
+        for f in cls.__dataclass_fields__.values():
+            if f.name != "notes":
+                setattr(settings, f.name, values.get(f.name, cls._default(f.name)))
+        settings.notes = notes
+        settings.validate(where)
+        return settings
+
+    @staticmethod
+    def _default(name: str) -> Any:
+        return RunnerSettings.__dataclass_fields__[name].default
+
+
+def _to_bool(v: Any) -> bool:
+    if isinstance(v, bool):
+        return v
+    if isinstance(v, str) and v.lower() in ("true", "1", "false", "0"):
+        return v.lower() in ("true", "1")
+    if isinstance(v, int):
+        return bool(v)
+    raise ValueError(v)
+
+
+def _to_int(v: Any) -> int:
+    if isinstance(v, bool):
+        raise ValueError(v)
+    if isinstance(v, str):
+        text = v.strip().lower()
+        return int(text, 16) if text.startswith("0x") else int(text, 10)
+    if isinstance(v, float) and not v.is_integer():
+        raise ValueError(v)
+    return int(v)
+
+
+def _to_float(v: Any) -> float:
+    if isinstance(v, bool):
+        raise ValueError(v)
+    return float(v)
+
+
+def _to_str(v: Any) -> str:
+    if not isinstance(v, str):
+        raise ValueError(v)
+    return v
+
+
+_CONVERTERS = {
+    "mode": _to_str,
+    "num_components_expected": _to_int,
+    "frequency": _to_float,
+    "wait_policy": _to_str,
+    "ros_mapping_whitelist": _to_str,
+    "ros_mapping_blacklist": _to_str,
+    "lock_memory": _to_bool,
+    "safe_heap_size_kB": _to_int,
+    "safe_stack_size_kB": _to_int,
+    "cpu_affinity_mask": _to_int,
+    "priority": _to_int,
+}
+_EXPECTED = {
+    "mode": "a string",
+    "num_components_expected": "an integer",
+    "frequency": "a number",
+    "wait_policy": "a string",
+    "ros_mapping_whitelist": "a string (a regular expression)",
+    "ros_mapping_blacklist": "a string (a regular expression)",
+    "lock_memory": "true or false",
+    "safe_heap_size_kB": "an integer",
+    "safe_stack_size_kB": "an integer",
+    "cpu_affinity_mask": "an integer bit mask",
+    "priority": "an integer",
+}
+# parameters a runner node may carry that are not settings
+_IGNORED = {"use_sim_time"}

@@ -1,0 +1,154 @@
+"""The example components."""
+
+from __future__ import annotations
+
+import math
+
+import rtcf
+
+
+class BareMinimum(rtcf.Component):
+    """Every hook, doing nothing but saying so: a template for your own."""
+
+    def configure(self) -> bool:
+        self.log.info("BareMinimum configured")
+        return True
+
+    def start(self) -> bool:
+        self.log.info("BareMinimum started")
+        return True
+
+    def update(self) -> None:
+        pass  # put your periodic payload here
+
+    def stop(self) -> None:
+        self.log.info("BareMinimum stopping")
+
+    def cleanup(self) -> None:
+        self.log.info("BareMinimum cleaning up")
+
+
+class Identity(rtcf.Component):
+    """Copies ``in_port`` to ``out_port`` whenever a new value arrives."""
+
+    def configure(self) -> None:
+        self.port_in = self.add_input("in_port", float)
+        self.port_out = self.add_output("out_port", float)
+
+    def update(self) -> None:
+        if self.port_in.has_new_data:
+            self.port_out.write(self.port_in.read())  # type: ignore[arg-type]
+
+
+class Mimo(rtcf.Component):
+    """Four inputs summed into two outputs (the paper's evaluation payload).
+
+    Inputs that have no value yet count as 0.
+    """
+
+    def configure(self) -> None:
+        self.in1 = self.add_input("in1", float)
+        self.in2 = self.add_input("in2", float)
+        self.in3 = self.add_input("in3", float)
+        self.in4 = self.add_input("in4", float)
+        self.out1 = self.add_output("out1", float)
+        self.out2 = self.add_output("out2", float)
+
+    def update(self) -> None:
+        total = (
+            (self.in1.read() or 0.0)
+            + (self.in2.read() or 0.0)
+            + (self.in3.read() or 0.0)
+            + (self.in4.read() or 0.0)
+        )
+        self.out1.write(total)
+        self.out2.write(total)
+
+
+class Logging(rtcf.Component):
+    """Logs at every level, in configure (non-real-time) and in every update."""
+
+    def configure(self) -> None:
+        for level in ("debug", "info", "warning", "error", "fatal"):
+            getattr(self.log, level)("Test non-RT %s with number %d", level, 12345)
+
+    def update(self) -> None:
+        self.log.debug("Test RT debug at iteration %d", self.iteration)
+        self.log.info("Test RT info at iteration %d", self.iteration)
+        self.log.warning("Test RT warning at iteration %d", self.iteration)
+        self.log.error("Test RT error at iteration %d", self.iteration)
+        self.log.fatal("Test RT fatal at iteration %d", self.iteration)
+
+
+class ParameterHandling(rtcf.Component):
+    """Reads private (``~``), namespace-relative and absolute parameters at configure time."""
+
+    def configure(self) -> None:
+        self.int_param = self.params.get("~int_param", 50)
+        self.double_param = self.params.get("~double_param", 0.5)
+        self.size = self.params.get("~size", 1)
+        self.another_private_param = self.params.get("~another_private_param", 0)
+        self.public_param = self.params.get("public_param", 0.0)
+        self.log.info(
+            "int_param=%s double_param=%s size=%s another_private_param=%s public_param=%s",
+            self.int_param,
+            self.double_param,
+            self.size,
+            self.another_private_param,
+            self.public_param,
+        )
+
+    def update(self) -> None:
+        self.log.info("double_param=%s at t=%.3f s", self.double_param, self.time)
+
+
+class PaperExample(rtcf.Component):
+    """Listing 1 of the paper: forwards ``in_port`` to ``out_port``."""
+
+    def configure(self) -> None:
+        self.port_in = self.add_input("in_port", float)
+        self.port_out = self.add_output("out_port", float)
+        self.param = self.params.get("/test_param", 0.0)
+        self.log.info("Fetched param with value %s", self.param)
+
+    def update(self) -> None:
+        value = self.port_in.read()
+        if value is not None:
+            self.port_out.write(value)
+
+
+class Sine(rtcf.Component):
+    """A signal source: ``out = offset + amplitude * sin(2 pi frequency_hz t)``."""
+
+    def configure(self) -> None:
+        self.out = self.add_output("out", float)
+        self.amplitude = float(self.params.get("~amplitude", 1.0))
+        self.omega = 2.0 * math.pi * float(self.params.get("~frequency_hz", 1.0))
+        self.offset = float(self.params.get("~offset", 0.0))
+
+    def update(self) -> None:
+        self.out.write(self.offset + self.amplitude * math.sin(self.omega * self.time))
+
+
+class FirstOrderPlant(rtcf.Component):
+    """A simulated first-order system ``tau dy/dt = gain u - y`` (explicit Euler).
+
+    Writes ``y`` and ``minus_y`` (for feedback through the summing Mimo).
+    """
+
+    def configure(self) -> None:
+        self.u = self.add_input("u", float)
+        self.y_out = self.add_output("y", float)
+        self.minus_y = self.add_output("minus_y", float)
+        self.gain = float(self.params.get("~gain", 1.0))
+        self.tau = float(self.params.get("~time_constant", 0.05))
+        self.y = 0.0
+
+    def start(self) -> None:
+        self.alpha = self.period / self.tau
+
+    def update(self) -> None:
+        u = self.u.read() or 0.0
+        self.y += self.alpha * (self.gain * u - self.y)
+        self.y_out.write(self.y)
+        self.minus_y.write(-self.y)
