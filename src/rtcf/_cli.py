@@ -137,7 +137,9 @@ def _describe_graph(graph: Graph, runner: Runner) -> str:
     lines.append(f"connections ({len(graph.edges)}):")
     for e in sorted(graph.edges, key=lambda e: (e.topic, e.consumer.qualified_name)):
         note = "" if e.orders else f"   (not ordered: {e.ignored_by}; one iteration late)"
-        lines.append(f"  {e.topic}: {e.producer.qualified_name} -> {e.consumer.qualified_name}{note}")
+        lines.append(
+            f"  {e.topic}: {e.producer.qualified_name} -> {e.consumer.qualified_name}{note}"
+        )
     mapped_out = [p for n in graph.nodes for p in n.outputs if settings.maps_to_ros(p.topic)]
     mapped_in = [p for p in graph.unconnected_inputs if settings.maps_to_ros(p.topic)]
     if mapped_out or mapped_in:
@@ -211,7 +213,9 @@ def cmd_launch(ns: argparse.Namespace) -> int:
                 file=target.location.file,
                 line=target.location.line,
             )
-        iterations = None if ns.duration is None else max(1, round(ns.duration * settings.frequency))
+        iterations = (
+            None if ns.duration is None else max(1, round(ns.duration * settings.frequency))
+        )
         _say(
             f"runner {target.name}: {len(runner.components)} components at "
             f"{settings.frequency:g} Hz (mode {settings.mode}, wait_policy {settings.wait_policy})"
@@ -312,7 +316,7 @@ def _install_stop_handlers(runner: Runner) -> dict[int, Any]:
         _say(f"{signal.Signals(signum).name}: stopping after this iteration")
         runner.request_stop()
 
-    previous = {}
+    previous: dict[int, Any] = {}
     for sig in (signal.SIGINT, signal.SIGTERM):
         previous[sig] = signal.signal(sig, handler)
     return previous
@@ -335,19 +339,36 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(dest="command", required=True, metavar="COMMAND")
     target_help = "FILE or PACKAGE FILE, then name:=value launch arguments"
 
-    launch = sub.add_parser("launch", help="run a launch file", epilog=EPILOG,
-                            formatter_class=argparse.RawDescriptionHelpFormatter)
+    launch = sub.add_parser(
+        "launch",
+        help="run a launch file",
+        epilog=EPILOG,
+        formatter_class=argparse.RawDescriptionHelpFormatter,
+    )
     launch.add_argument("target", nargs="+", metavar="TARGET", help=target_help)
-    launch.add_argument("--duration", type=_positive_float, metavar="SECONDS",
-                        help="run frequency x SECONDS iterations, then stop (default: until Ctrl-C)")
-    launch.add_argument("--sim", action="store_true",
-                        help="run on a simulated clock as fast as possible (deterministic)")
+    launch.add_argument(
+        "--duration",
+        type=_positive_float,
+        metavar="SECONDS",
+        help="run frequency x SECONDS iterations, then stop (default: until Ctrl-C)",
+    )
+    launch.add_argument(
+        "--sim",
+        action="store_true",
+        help="run on a simulated clock as fast as possible (deterministic)",
+    )
     launch.add_argument("--report", metavar="DIR", help="write timing.json into DIR")
-    launch.add_argument("--trace", metavar="CSV",
-                        help="write every output topic's value after every iteration to CSV")
-    launch.add_argument("--log-level", default="info",
-                        choices=["debug", "info", "warning", "error"],
-                        help="lowest level of component log records shown (default info)")
+    launch.add_argument(
+        "--trace",
+        metavar="CSV",
+        help="write every output topic's value after every iteration to CSV",
+    )
+    launch.add_argument(
+        "--log-level",
+        default="info",
+        choices=["debug", "info", "warning", "error"],
+        help="lowest level of component log records shown (default info)",
+    )
     launch.set_defaults(func=cmd_launch)
 
     graph = sub.add_parser("graph", help="print components, connections and execution order")

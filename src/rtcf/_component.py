@@ -40,6 +40,11 @@ class Component:
     namespace: str
     params: Params
     log: ComponentLogger
+    # the runner's wiring, kept apart from user attributes by the prefix
+    _rtcf_state: LoopState
+    _rtcf_resolver: Resolver
+    _rtcf_inputs: dict[str, InputPort[Any]]
+    _rtcf_outputs: dict[str, OutputPort[Any]]
 
     def __init__(self) -> None:
         # Constructed by a runner, the context is attached before __init__ runs; a
@@ -172,10 +177,10 @@ def _attach(
     full = join(namespace, name)
     component.params = Params(store, resolver, full)
     component.log = ComponentLogger(full, ring, state)
-    component._rtcf_state = state  # type: ignore[attr-defined]
-    component._rtcf_resolver = resolver  # type: ignore[attr-defined]
-    component._rtcf_inputs = {}  # type: ignore[attr-defined]
-    component._rtcf_outputs = {}  # type: ignore[attr-defined]
+    component._rtcf_state = state
+    component._rtcf_resolver = resolver
+    component._rtcf_inputs = {}
+    component._rtcf_outputs = {}
 
 
 def overrides(component: Component, hook: str) -> bool:

@@ -24,7 +24,14 @@ from ._settings import RunnerSettings
 PACKAGE = "rtcf"
 RUNNER = "rt_runner"
 LAUNCHER = "rt_launcher"
-LAUNCHER_PARAMS = ("is_first", "is_sync", "topics_ignore_for_graph", "rt_package", "rt_type", "runner")
+LAUNCHER_PARAMS = (
+    "is_first",
+    "is_sync",
+    "topics_ignore_for_graph",
+    "rt_package",
+    "rt_type",
+    "runner",
+)
 
 
 @dataclass
@@ -82,7 +89,9 @@ def plan(description: LaunchDescription) -> Deployment:
             except LaunchError:
                 raise
             except Exception as exc:  # ConfigurationError: add the file and line
-                raise LaunchError(str(exc), file=node.location.file, line=node.location.line) from None
+                raise LaunchError(
+                    str(exc), file=node.location.file, line=node.location.line
+                ) from None
             warnings.extend(f"{node.location}: {n}" for n in settings.notes)
             runners.append(RunnerDeployment(node.full_name, settings, node.location))
         elif is_launcher(node):
@@ -132,7 +141,7 @@ def _component_spec(node: NodeDescription, params: ParameterStore) -> tuple[Comp
         else:
             raise err(f"unknown option {flag!r} in args; allowed: -f/--is_first")
     if len(positional) > 2:
-        raise err(f"args {node.args!r} has too many words; use \"MODULE ClassName [-f]\"")
+        raise err(f'args {node.args!r} has too many words; use "MODULE ClassName [-f]"')
     module = positional[0] if len(positional) == 2 else ""
     class_name = positional[-1] if positional else ""
     for key, current in (("rt_package", module), ("rt_type", class_name)):
@@ -152,7 +161,7 @@ def _component_spec(node: NodeDescription, params: ParameterStore) -> tuple[Comp
             module, _, class_name = class_name.rpartition(".")
         else:
             raise err(
-                f"no module given for class {class_name!r}; use args=\"MODULE {class_name}\" "
+                f'no module given for class {class_name!r}; use args="MODULE {class_name}" '
                 "or parameter ~rt_package"
             )
     is_first = is_first_flag
@@ -188,7 +197,9 @@ def _pick_runner(
 ) -> RunnerDeployment:
     loc = node.location
     if wanted:
-        full = normalize_namespace(wanted) if wanted.startswith("/") else join(node.namespace, wanted)
+        full = (
+            normalize_namespace(wanted) if wanted.startswith("/") else join(node.namespace, wanted)
+        )
         for candidate in (full, normalize_namespace(wanted)):
             if candidate in by_name:
                 return by_name[candidate]

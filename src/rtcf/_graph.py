@@ -113,11 +113,11 @@ def build_graph(nodes: Sequence[GraphNode]) -> Graph:
     unconnected: list[PortInfo] = []
     for node in nodes:
         for inp in node.inputs:
-            prods = producers.get(inp.topic)
-            if not prods:
+            found = producers.get(inp.topic)
+            if not found:
                 unconnected.append(inp)
                 continue
-            out = prods[0]
+            out = found[0]
             if not types_compatible(out.type, inp.type):
                 raise GraphError(
                     f"type mismatch on topic {inp.topic!r}: output {out.qualified_name} is "
@@ -132,8 +132,11 @@ def build_graph(nodes: Sequence[GraphNode]) -> Graph:
             edges.append(Edge(inp.topic, out, inp, ignored_by))
 
     unconsumed = [p for n in nodes for p in n.outputs if p.topic not in consumers]
-    order = kahn_order(names, ((e.producer.component, e.consumer.component, e.topic)
-                               for e in edges if e.orders), by_name)
+    order = kahn_order(
+        names,
+        ((e.producer.component, e.consumer.component, e.topic) for e in edges if e.orders),
+        by_name,
+    )
     return Graph(list(nodes), edges, order, unconnected, unconsumed, warnings)
 
 
@@ -212,10 +215,9 @@ def to_dot(graph: Graph) -> str:
             label += "\\nis_first"
         lines.append(f'  "{node.name}" [label="{label}"];')
     for e in graph.edges:
-        style = ', style=dashed, constraint=false' if not e.orders else ""
+        style = ", style=dashed, constraint=false" if not e.orders else ""
         lines.append(
-            f'  "{e.producer.component}" -> "{e.consumer.component}" '
-            f'[label="{e.topic}"{style}];'
+            f'  "{e.producer.component}" -> "{e.consumer.component}" [label="{e.topic}"{style}];'
         )
     lines.append("}")
     return "\n".join(lines) + "\n"
@@ -228,8 +230,12 @@ def to_mermaid(graph: Graph) -> str:
     lines = ["flowchart LR"]
     for node in graph.nodes:
         extra = " is_first" if node.is_first else ""
-        lines.append(f'  {ids[node.name]}["{node.name}<br/>{node.label} #{rank[node.name] + 1}{extra}"]')
+        lines.append(
+            f'  {ids[node.name]}["{node.name}<br/>{node.label} #{rank[node.name] + 1}{extra}"]'
+        )
     for e in graph.edges:
         arrow = "-.->" if not e.orders else "-->"
-        lines.append(f'  {ids[e.producer.component]} {arrow}|"{e.topic}"| {ids[e.consumer.component]}')
+        lines.append(
+            f'  {ids[e.producer.component]} {arrow}|"{e.topic}"| {ids[e.consumer.component]}'
+        )
     return "\n".join(lines) + "\n"

@@ -49,7 +49,9 @@ class NodeDescription:
 
     @property
     def full_name(self) -> str:
-        return self.namespace + self.name if self.namespace == "/" else f"{self.namespace}/{self.name}"
+        return (
+            self.namespace + self.name if self.namespace == "/" else f"{self.namespace}/{self.name}"
+        )
 
 
 @dataclass

@@ -14,7 +14,7 @@ def load_component_class(module: str, class_name: str, *, component: str = "") -
     who = f"component {component!r}: " if component else ""
     if not module or not class_name:
         raise ComponentError(
-            f"{who}needs a module and a class, as in args=\"rtcf_examples PaperExample\"",
+            f'{who}needs a module and a class, as in args="rtcf_examples PaperExample"',
             component=component,
         )
     try:
@@ -35,7 +35,8 @@ def load_component_class(module: str, class_name: str, *, component: str = "") -
     cls = getattr(mod, class_name, None)
     if cls is None:
         available = sorted(
-            n for n, v in vars(mod).items()
+            n
+            for n, v in vars(mod).items()
             if isinstance(v, type) and issubclass(v, Component) and v is not Component
         )
         hint = f"; it has {', '.join(available)}" if available else ""

@@ -82,7 +82,7 @@ class InputPort(Port[T]):
         """Return the latest value (None before the first write) and mark it as seen."""
         slot = self._slot
         self._seen = slot.seq
-        return slot.value  # type: ignore[no-any-return]
+        return slot.value
 
     @property
     def status(self) -> FlowStatus:

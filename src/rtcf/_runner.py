@@ -119,11 +119,12 @@ class Runner:
 
     def load(self, spec: ComponentSpec) -> Component:
         """Construct and configure a component; the loop re-resolves before it next runs."""
-        where = {"file": spec.location.file, "line": spec.location.line} if spec.location else {}
+        file = spec.location.file if spec.location else None
+        line = spec.location.line if spec.location else None
         full = spec.full_name
 
         def fail(msg: str, cause: BaseException | None = None) -> ComponentError:
-            err = ComponentError(f"component {full!r}: {msg}", component=full, **where)
+            err = ComponentError(f"component {full!r}: {msg}", component=full, file=file, line=line)
             err.__cause__ = cause
             return err
 
@@ -139,7 +140,9 @@ class Runner:
                 "expects (num_components_expected); raise that number or load fewer"
             )
         try:
-            ignore = re.compile(spec.topics_ignore_for_graph) if spec.topics_ignore_for_graph else None
+            ignore = (
+                re.compile(spec.topics_ignore_for_graph) if spec.topics_ignore_for_graph else None
+            )
         except re.error as exc:
             raise fail(
                 f"topics_ignore_for_graph {spec.topics_ignore_for_graph!r} is not a valid "
@@ -150,7 +153,9 @@ class Runner:
             try:
                 cls = load_component_class(spec.module, spec.class_name, component=full)
             except ComponentError as exc:
-                raise ComponentError(exc.message, component=full, **where) from exc.__cause__
+                raise ComponentError(
+                    exc.message, component=full, file=file, line=line
+                ) from exc.__cause__
         namespace = normalize_namespace(spec.namespace)
         resolver = Resolver(namespace, spec.name, spec.remaps)
         for key, value in spec.params.items():
@@ -237,8 +242,8 @@ class Runner:
             nodes.append(
                 GraphNode(
                     name=full,
-                    inputs=[_info(full, p) for p in comp._rtcf_inputs.values()],  # type: ignore[attr-defined]
-                    outputs=[_info(full, p) for p in comp._rtcf_outputs.values()],  # type: ignore[attr-defined]
+                    inputs=[_info(full, p) for p in comp._rtcf_inputs.values()],
+                    outputs=[_info(full, p) for p in comp._rtcf_outputs.values()],
                     is_first=entry.spec.is_first,
                     ignore_pattern=entry.ignore,
                     label=type(comp).__name__,
@@ -260,12 +265,10 @@ class Runner:
     def _compile(self) -> Executor:
         graph = self.graph
         outputs = {
-            p.topic: p
-            for e in self._loaded.values()
-            for p in e.component._rtcf_outputs.values()  # type: ignore[attr-defined]
+            p.topic: p for e in self._loaded.values() for p in e.component._rtcf_outputs.values()
         }
         for entry in self._loaded.values():
-            for port in entry.component._rtcf_inputs.values():  # type: ignore[attr-defined]
+            for port in entry.component._rtcf_inputs.values():
                 port._connect(outputs.get(port.topic))
         # components whose update is not overridden cost nothing in the loop
         scheduled = [n for n in graph.order if overrides(self._loaded[n].component, "update")]

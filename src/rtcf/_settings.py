@@ -62,9 +62,7 @@ class RunnerSettings:
         if self.mode not in MODES:
             raise bad(f"mode {self.mode!r} is unknown; use one of {', '.join(MODES)}")
         if self.mode == "wait_for_components" and self.num_components_expected <= 0:
-            raise bad(
-                "mode 'wait_for_components' needs num_components_expected, a number above 0"
-            )
+            raise bad("mode 'wait_for_components' needs num_components_expected, a number above 0")
         if not (self.frequency > 0 and self.frequency < 1e6):
             raise bad(f"frequency {self.frequency!r} Hz is not feasible; use a value in (0, 1e6)")
         if self.wait_policy not in WAIT_POLICIES:
@@ -98,8 +96,7 @@ class RunnerSettings:
                 values[key] = _CONVERTERS[key](value)
             except (TypeError, ValueError):
                 raise ConfigurationError(
-                    f"{where}: parameter {key!r} has value {value!r}, which is not "
-                    f"{_EXPECTED[key]}"
+                    f"{where}: parameter {key!r} has value {value!r}, which is not {_EXPECTED[key]}"
                 ) from None
         if "mode" not in values:
             notes.append(f"{where}: no mode given, using 'no_wait'")

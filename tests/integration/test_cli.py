@@ -7,7 +7,6 @@ import subprocess
 import sys
 import textwrap
 import time
-from pathlib import Path
 
 import pytest
 
@@ -46,8 +45,13 @@ def test_every_example_launch_file_runs(launch):
 
 def test_paper_evaluation_runs_in_real_time_in_the_paper_order(tmp_path):
     result = run_rtcf(
-        "launch", "rtcf_examples", "paper_evaluation.launch", "--duration", "0.5",
-        "--report", tmp_path,
+        "launch",
+        "rtcf_examples",
+        "paper_evaluation.launch",
+        "--duration",
+        "0.5",
+        "--report",
+        tmp_path,
     )
     assert result.returncode == 0, result.stderr
     assert "rtcf: order: /H1 -> /F1 -> /R1 -> /R2 -> /R3" in result.stderr
@@ -78,8 +82,9 @@ def test_graph_formats():
     assert dot.stdout.startswith("digraph rtcf {")
     assert dot.stdout.count(" -> ") == 17
     assert dot.stdout.count("style=dashed") == 3
-    mermaid = run_rtcf("graph", "rtcf_examples", "complex_architecture.launch",
-                       "--format", "mermaid")
+    mermaid = run_rtcf(
+        "graph", "rtcf_examples", "complex_architecture.launch", "--format", "mermaid"
+    )
     assert mermaid.stdout.startswith("flowchart LR")
     assert mermaid.stdout.count("-.->") == 3
 
@@ -88,8 +93,17 @@ def test_sim_runs_are_identical_iteration_by_iteration(tmp_path):
     traces = []
     for i in range(2):
         out = tmp_path / f"trace{i}.csv"
-        result = run_rtcf("launch", "rtcf_examples", "sine_cascade.launch", "gain:=0.8",
-                          "--sim", "--duration", "3", "--trace", out)
+        result = run_rtcf(
+            "launch",
+            "rtcf_examples",
+            "sine_cascade.launch",
+            "gain:=0.8",
+            "--sim",
+            "--duration",
+            "3",
+            "--trace",
+            out,
+        )
         assert result.returncode == 0, result.stderr
         traces.append(out.read_text())
     assert traces[0] == traces[1]
@@ -102,10 +116,20 @@ def test_sim_runs_are_identical_iteration_by_iteration(tmp_path):
 
 def test_launch_args_change_the_run(tmp_path):
     a, b = tmp_path / "a.csv", tmp_path / "b.csv"
-    run_rtcf("launch", "rtcf_examples", "sine_cascade.launch", "--sim", "--duration", "0.1",
-             "--trace", a)
-    run_rtcf("launch", "rtcf_examples", "sine_cascade.launch", "gain:=2.0", "--sim",
-             "--duration", "0.1", "--trace", b)
+    run_rtcf(
+        "launch", "rtcf_examples", "sine_cascade.launch", "--sim", "--duration", "0.1", "--trace", a
+    )
+    run_rtcf(
+        "launch",
+        "rtcf_examples",
+        "sine_cascade.launch",
+        "gain:=2.0",
+        "--sim",
+        "--duration",
+        "0.1",
+        "--trace",
+        b,
+    )
     assert a.read_text() != b.read_text()
 
 
@@ -116,16 +140,22 @@ def test_check_accepts_a_good_file():
 
 
 def test_cycle_is_an_error_naming_the_components_and_topics(tmp_path):
-    path = write_launch(tmp_path, """
+    path = write_launch(
+        tmp_path,
+        """
       <node name="a" pkg="rtcf" type="rt_launcher" args="rtcf_examples Identity">
         <remap from="in_port" to="/x"/><remap from="out_port" to="/y"/>
       </node>
       <node name="b" pkg="rtcf" type="rt_launcher" args="rtcf_examples Identity">
         <remap from="in_port" to="/y"/><remap from="out_port" to="/x"/>
-      </node>""")
+      </node>""",
+    )
     for command in ("check", "graph", "launch"):
-        result = run_rtcf(command, path, "--sim", "--duration", "1") if command == "launch" \
+        result = (
+            run_rtcf(command, path, "--sim", "--duration", "1")
+            if command == "launch"
             else run_rtcf(command, path)
+        )
         assert result.returncode == 1
         line = error_line(result)
         assert "cycle" in line and "/a" in line and "/b" in line
@@ -134,32 +164,44 @@ def test_cycle_is_an_error_naming_the_components_and_topics(tmp_path):
 
 
 def test_missing_module_names_file_line_and_component(tmp_path):
-    path = write_launch(tmp_path, """
-      <node name="ctl" pkg="rtcf" type="rt_launcher" args="no_such_module Thing"/>""")
+    path = write_launch(
+        tmp_path,
+        """
+      <node name="ctl" pkg="rtcf" type="rt_launcher" args="no_such_module Thing"/>""",
+    )
     line = error_line(run_rtcf("check", path))
     assert f"{path}:7:" in line
     assert "'/ctl'" in line and "no_such_module" in line and "PYTHONPATH" in line
 
 
 def test_missing_class_lists_what_the_module_has(tmp_path):
-    path = write_launch(tmp_path, """
-      <node name="ctl" pkg="rtcf" type="rt_launcher" args="rtcf_examples Mimoo"/>""")
+    path = write_launch(
+        tmp_path,
+        """
+      <node name="ctl" pkg="rtcf" type="rt_launcher" args="rtcf_examples Mimoo"/>""",
+    )
     line = error_line(run_rtcf("check", path))
     assert "has no class 'Mimoo'" in line and "Mimo" in line
 
 
 def test_not_a_component_class(tmp_path):
-    path = write_launch(tmp_path, """
-      <node name="x" pkg="rtcf" type="rt_launcher" args="rtcf_test_components NotAComponent"/>""")
+    path = write_launch(
+        tmp_path,
+        """
+      <node name="x" pkg="rtcf" type="rt_launcher" args="rtcf_test_components NotAComponent"/>""",
+    )
     assert "not a subclass of rtcf.Component" in error_line(run_rtcf("check", path))
 
 
 def test_type_mismatch_names_both_ends(tmp_path):
-    path = write_launch(tmp_path, """
+    path = write_launch(
+        tmp_path,
+        """
       <node name="src" pkg="rtcf" type="rt_launcher" args="rtcf_test_components IntSource"/>
       <node name="dst" pkg="rtcf" type="rt_launcher" args="rtcf_examples Identity">
         <remap from="in_port" to="/out"/>
-      </node>""")
+      </node>""",
+    )
     line = error_line(run_rtcf("check", path))
     assert "/src.out" in line and "/dst.in_port" in line and "int" in line and "float" in line
 
@@ -177,8 +219,11 @@ def test_invalid_whitelist_regex_is_an_error(tmp_path):
 
 
 def test_configure_returning_false(tmp_path):
-    path = write_launch(tmp_path, """
-      <node name="f" pkg="rtcf" type="rt_launcher" args="rtcf_test_components FailsConfigure"/>""")
+    path = write_launch(
+        tmp_path,
+        """
+      <node name="f" pkg="rtcf" type="rt_launcher" args="rtcf_test_components FailsConfigure"/>""",
+    )
     line = error_line(run_rtcf("launch", path, "--sim", "--duration", "1"))
     assert "'/f'" in line and "configure() returned False" in line
 
@@ -198,10 +243,13 @@ def test_too_few_components_for_wait_for_components(tmp_path):
 
 
 def test_update_exception_names_component_and_iteration_and_runs_teardown(tmp_path):
-    path = write_launch(tmp_path, """
+    path = write_launch(
+        tmp_path,
+        """
       <node name="bomb" pkg="rtcf" type="rt_launcher" args="rtcf_test_components Explodes">
         <param name="at" value="7"/>
-      </node>""")
+      </node>""",
+    )
     result = run_rtcf("launch", path, "--sim", "--duration", "1")
     assert result.returncode == 1
     line = error_line(result)
@@ -211,8 +259,11 @@ def test_update_exception_names_component_and_iteration_and_runs_teardown(tmp_pa
 
 
 def test_debug_shows_the_traceback(tmp_path):
-    path = write_launch(tmp_path, """
-      <node name="ctl" pkg="rtcf" type="rt_launcher" args="no_such_module Thing"/>""")
+    path = write_launch(
+        tmp_path,
+        """
+      <node name="ctl" pkg="rtcf" type="rt_launcher" args="no_such_module Thing"/>""",
+    )
     result = run_rtcf("--debug", "check", path)
     assert result.returncode != 0
     assert "Traceback" in result.stderr
@@ -232,7 +283,10 @@ def test_ctrl_c_stops_cleanly_and_runs_stop_and_cleanup():
     env["PYTHONPATH"] = os.pathsep.join([str(SRC), str(FIXTURES)])
     proc = subprocess.Popen(
         [sys.executable, "-m", "rtcf", "launch", "rtcf_examples", "launcher_and_runner.launch"],
-        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, env=env,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=env,
         stdin=subprocess.DEVNULL,
     )
     deadline = time.monotonic() + 30
@@ -248,8 +302,16 @@ def test_ctrl_c_stops_cleanly_and_runs_stop_and_cleanup():
 
 
 def test_report_dir_for_sim_run(tmp_path):
-    result = run_rtcf("launch", "rtcf_examples", "paper_example.launch", "--sim",
-                      "--duration", "1", "--report", tmp_path / "r")
+    result = run_rtcf(
+        "launch",
+        "rtcf_examples",
+        "paper_example.launch",
+        "--sim",
+        "--duration",
+        "1",
+        "--report",
+        tmp_path / "r",
+    )
     assert result.returncode == 0, result.stderr
     doc = json.loads((tmp_path / "r" / "timing.json").read_text())
     assert doc["simulated"] is True and doc["iterations"] == 1000
@@ -258,18 +320,37 @@ def test_report_dir_for_sim_run(tmp_path):
 
 
 def test_parameters_reach_the_component(tmp_path):
-    result = run_rtcf("launch", "rtcf_examples", "parameter_handling.launch", "--sim",
-                      "--duration", "1")
+    result = run_rtcf(
+        "launch", "rtcf_examples", "parameter_handling.launch", "--sim", "--duration", "1"
+    )
     assert result.returncode == 0, result.stderr
-    assert ("int_param=33 double_param=0.56789 size=2 another_private_param=-111222333 "
-            "public_param=123.456789") in result.stderr
+    assert (
+        "int_param=33 double_param=0.56789 size=2 another_private_param=-111222333 "
+        "public_param=123.456789"
+    ) in result.stderr
 
 
 def test_logging_levels_filter_in_the_component(tmp_path):
-    quiet = run_rtcf("launch", "rtcf_examples", "logging.launch", "--sim", "--duration", "2",
-                     "--log-level", "error")
-    loud = run_rtcf("launch", "rtcf_examples", "logging.launch", "--sim", "--duration", "2",
-                    "--log-level", "debug")
+    quiet = run_rtcf(
+        "launch",
+        "rtcf_examples",
+        "logging.launch",
+        "--sim",
+        "--duration",
+        "2",
+        "--log-level",
+        "error",
+    )
+    loud = run_rtcf(
+        "launch",
+        "rtcf_examples",
+        "logging.launch",
+        "--sim",
+        "--duration",
+        "2",
+        "--log-level",
+        "debug",
+    )
     assert "Test RT debug at iteration 1" in loud.stderr
     assert "[FATAL] #1 [/loggin_test]: Test RT fatal at iteration 1" in loud.stderr
     assert "Test RT info" not in quiet.stderr and "Test RT error at iteration 1" in quiet.stderr

@@ -1,0 +1,297 @@
+"""Clocks and the loop executor, timed exactly on a SimClock."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import pytest
+
+from rtcf import MonotonicClock, SimClock
+from rtcf._executor import Executor, StopFlag, UpdateFailure
+from rtcf._loop_state import LoopState
+from rtcf._timing import TimingRecorder
+
+P = 1_000_000  # period at 1 kHz
+
+
+def _costs(table: dict[int, int]) -> Callable[[int], int]:
+    """cost_ns by read index: read 0 is the loop's first now(); then, per iteration
+    with one update, read 1+2k is the wake-up time and 2+2k the end of the update."""
+    return lambda n: table.get(n, 0)
+
+
+class Probe:
+    """An update that records the loop state it sees."""
+
+    def __init__(self, state: LoopState) -> None:
+        self.state = state
+        self.seen: list[tuple[int, int, bool]] = []
+
+    def __call__(self) -> None:
+        s = self.state
+        self.seen.append((s.iteration, s.time_ns, s.running))
+
+
+def _executor(
+    clock: SimClock, updates: int = 1, policy: str = "absolute", capacity: int = 64
+) -> tuple[Executor, list[Probe]]:
+    state = LoopState(1000.0)
+    probes = [Probe(state) for _ in range(updates)]
+    rec = TimingRecorder([f"/c{i}" for i in range(updates)], capacity)
+    return Executor(probes, clock, state, rec, wait_policy=policy), probes
+
+
+def _jitter_calc(ex: Executor) -> tuple[list[int], list[int]]:
+    rec = ex.recorder
+    n = rec.count
+    return [rec.jitter[i] for i in range(n)], [rec.calc[i] for i in range(n)]
+
+
+# -- SimClock --------------------------------------------------------------------
+def test_simclock_moves_only_when_told() -> None:
+    c = SimClock(5)
+    assert c.simulated is True
+    assert c.now_ns() == 5
+    assert c.now_ns() == 5
+    c.sleep_until_ns(100)
+    assert c.now_ns() == 100
+    c.sleep_until_ns(50)  # a deadline in the past does not move time back
+    assert c.now_ns() == 100
+    c.advance(7)
+    assert c.now_ns() == 107
+
+
+def test_simclock_latency_and_cost_get_call_counts() -> None:
+    sleeps: list[int] = []
+    reads: list[int] = []
+
+    def latency(n: int) -> int:
+        sleeps.append(n)
+        return 10
+
+    def cost(n: int) -> int:
+        reads.append(n)
+        return 1
+
+    c = SimClock(wake_latency_ns=latency, cost_ns=cost)
+    assert c.now_ns() == 1
+    assert c.now_ns() == 2
+    c.sleep_until_ns(100)
+    assert c.now_ns() == 111
+    c.sleep_until_ns(0)  # already past: only the latency
+    assert c.now_ns() == 122
+    assert sleeps == [0, 1]
+    assert reads == [0, 1, 2, 3]
+
+
+def test_monotonic_clock_is_not_simulated_and_past_deadline_returns() -> None:
+    c = MonotonicClock()
+    assert c.simulated is False
+    a = c.now_ns()
+    c.sleep_until_ns(a - 1_000_000_000)  # long past: must not block
+    assert c.now_ns() >= a
+
+
+# -- executor timing -----------------------------------------------------------------
+def test_jitter_and_calc_are_exactly_the_simulated_values() -> None:
+    clock = SimClock(
+        wake_latency_ns=[1000, 2000, 3000].__getitem__,
+        cost_ns=_costs({2: 10_000, 4: 20_000, 6: 30_000}),
+    )
+    ex, (probe,) = _executor(clock)
+    assert ex.run(3, StopFlag()) == 3
+    jitter, calc = _jitter_calc(ex)
+    assert jitter == [1000, 2000, 3000]
+    assert calc == [10_000, 20_000, 30_000]
+    assert list(ex.recorder.per_component[:3]) == [10_000, 20_000, 30_000]
+    assert ex.recorder.overruns == 0
+    assert probe.seen == [(0, 0, True), (1, P, True), (2, 2 * P, True)]
+    assert ex.state.running is False
+    assert ex.state.iteration == 2
+
+
+def test_per_component_times_are_split() -> None:
+    # reads: 0 start; per iteration: t0, after update 0, after update 1
+    clock = SimClock(cost_ns=_costs({2: 100, 3: 300, 5: 500, 6: 700}))
+    ex, _ = _executor(clock, updates=2)
+    ex.run(2, StopFlag())
+    rec = ex.recorder
+    assert list(rec.per_component[:4]) == [100, 300, 500, 700]
+    assert [rec.calc[0], rec.calc[1]] == [400, 1200]
+
+
+def test_time_ns_is_relative_to_the_first_scheduled_start() -> None:
+    clock = SimClock(123_456)
+    ex, (probe,) = _executor(clock)
+    ex.run(3, StopFlag())
+    assert [t for _, t, _ in probe.seen] == [0, P, 2 * P]
+    assert ex.origin_ns == 123_456
+
+
+def test_absolute_policy_catches_up_back_to_back() -> None:
+    # iteration 1's update takes 2.5 periods (read 4 is the end of its update)
+    clock = SimClock(cost_ns=_costs({4: 5 * P // 2}))
+    ex, (probe,) = _executor(clock, policy="absolute")
+    starts: list[int] = []
+    ex.idle = None
+    ex.updates = (lambda: (starts.append(clock._now), probe()),)
+    ex.run(5, StopFlag())
+    jitter, calc = _jitter_calc(ex)
+    # iteration 2 (due at 2P) and 3 (due at 3P) both start at 3.5P, back to back
+    assert starts == [0, P, 7 * P // 2, 7 * P // 2, 4 * P]
+    assert jitter == [0, 0, 3 * P // 2, P // 2, 0]
+    assert calc == [0, 5 * P // 2, 0, 0, 0]
+    # iteration 1 ended after 2P, iteration 2 ended after 3P
+    assert ex.recorder.overruns == 2
+    # scheduled times stay on the grid
+    assert [t for _, t, _ in probe.seen] == [0, P, 2 * P, 3 * P, 4 * P]
+
+
+def test_relative_policy_reanchors_after_an_overrun() -> None:
+    clock = SimClock(cost_ns=_costs({4: 5 * P // 2}))
+    ex, (probe,) = _executor(clock, policy="relative")
+    starts: list[int] = []
+    ex.updates = (lambda: (starts.append(clock._now), probe()),)
+    ex.run(5, StopFlag())
+    jitter, calc = _jitter_calc(ex)
+    # iteration 1 ends at 3.5P; the next starts one period later, and so on
+    assert starts == [0, P, 9 * P // 2, 11 * P // 2, 13 * P // 2]
+    assert jitter == [0, 0, 0, 0, 0]
+    assert calc == [0, 5 * P // 2, 0, 0, 0]
+    assert ex.recorder.overruns == 1
+    assert [t for _, t, _ in probe.seen] == [0, P, 9 * P // 2, 11 * P // 2, 13 * P // 2]
+
+
+def test_calc_exactly_one_period_is_not_an_overrun() -> None:
+    clock = SimClock(cost_ns=_costs({2: P}))
+    ex, _ = _executor(clock)
+    ex.run(2, StopFlag())
+    assert ex.recorder.overruns == 0
+    assert _jitter_calc(ex)[0] == [0, 0]
+
+
+def test_late_wakeup_counts_as_overrun_when_it_ends_past_the_next_deadline() -> None:
+    clock = SimClock(wake_latency_ns=[P + 1, 0, 0].__getitem__)
+    ex, _ = _executor(clock)
+    ex.run(3, StopFlag())
+    jitter, _ = _jitter_calc(ex)
+    assert jitter == [P + 1, 1, 0]
+    assert ex.recorder.overruns == 1
+
+
+def test_stop_flag_ends_after_the_current_iteration() -> None:
+    ex, (probe,) = _executor(SimClock())
+    stop = StopFlag()
+    ex.idle = lambda: stop.set() if ex.state.iteration == 2 else None
+    assert ex.run(None, stop) == 3
+    assert [i for i, _, _ in probe.seen] == [0, 1, 2]
+    assert stop.requested
+
+
+def test_stop_flag_set_before_run_runs_nothing() -> None:
+    ex, (probe,) = _executor(SimClock())
+    stop = StopFlag()
+    stop.set()
+    assert ex.run(10, stop) == 0
+    assert probe.seen == []
+    assert ex.recorder.count == 0
+
+
+def test_run_zero_iterations() -> None:
+    ex, (probe,) = _executor(SimClock())
+    assert ex.run(0, StopFlag()) == 0
+    assert probe.seen == []
+
+
+def test_idle_runs_after_each_recorded_iteration() -> None:
+    ex, _ = _executor(SimClock())
+    counts: list[int] = []
+    ex.idle = lambda: counts.append(ex.recorder.count)
+    ex.run(3, StopFlag())
+    assert counts == [1, 2, 3]
+
+
+def test_update_failure_carries_index_iteration_and_time() -> None:
+    state_holder: list[Executor] = []
+
+    def bad() -> None:
+        if state_holder[0].state.iteration == 3:
+            raise ValueError("boom")
+
+    ex, (probe,) = _executor(SimClock())
+    ex.updates = (probe, bad)
+    ex.recorder = TimingRecorder(["/a", "/b"], 16)
+    state_holder.append(ex)
+    with pytest.raises(UpdateFailure) as info:
+        ex.run(10, StopFlag())
+    failure = info.value
+    assert failure.index == 1
+    assert failure.iteration == 3
+    assert failure.time_ns == 3 * P
+    assert isinstance(failure.error, ValueError)
+    assert failure.__cause__ is failure.error
+    assert ex.state.running is False
+    assert ex.recorder.count == 3  # the failed iteration is not recorded
+    assert [i for i, _, _ in probe.seen] == [0, 1, 2, 3]
+
+
+def test_failure_in_first_update_has_index_zero() -> None:
+    def bad() -> None:
+        raise RuntimeError("x")
+
+    ex, _ = _executor(SimClock())
+    ex.updates = (bad,)
+    with pytest.raises(UpdateFailure) as info:
+        ex.run(1, StopFlag())
+    assert (info.value.index, info.value.iteration, info.value.time_ns) == (0, 0, 0)
+
+
+def test_idle_error_is_not_an_update_failure() -> None:
+    ex, _ = _executor(SimClock())
+
+    def idle() -> None:
+        raise KeyError("idle")
+
+    ex.idle = idle
+    with pytest.raises(KeyError):
+        ex.run(3, StopFlag())
+    assert ex.state.running is False
+
+
+def test_a_second_run_continues_iterations_and_the_time_grid() -> None:
+    clock = SimClock(cost_ns=_costs({2: 40, 4: 40}))
+    ex, (probe,) = _executor(clock)
+    assert ex.run(2, StopFlag()) == 2
+    assert ex.run(2, StopFlag()) == 2
+    assert [(i, t) for i, t, _ in probe.seen] == [(0, 0), (1, P), (2, 2 * P), (3, 3 * P)]
+    assert ex.recorder.count == 4
+    assert _jitter_calc(ex)[0] == [0, 0, 0, 0]
+
+
+def test_run_after_a_failure_resumes_at_the_next_slot() -> None:
+    fail = [True]
+
+    ex, (probe,) = _executor(SimClock())
+
+    def flaky() -> None:
+        if ex.state.iteration == 1 and fail[0]:
+            fail[0] = False
+            raise ValueError
+
+    ex.updates = (probe, flaky)
+    ex.recorder = TimingRecorder(["/a", "/b"], 16)
+    with pytest.raises(UpdateFailure):
+        ex.run(5, StopFlag())
+    ex.run(2, StopFlag())
+    assert [(i, t) for i, t, _ in probe.seen] == [(0, 0), (1, P), (2, 2 * P), (3, 3 * P)]
+
+
+def test_recorder_ring_wraps() -> None:
+    clock = SimClock(cost_ns=lambda n: n if n % 2 == 0 else 0)  # calc of iteration k: 2+2k
+    ex, _ = _executor(clock, capacity=4)
+    ex.run(6, StopFlag())
+    rec = ex.recorder
+    assert rec.count == 6
+    # slots 0 and 1 were overwritten by iterations 4 and 5
+    assert list(rec.calc) == [10, 12, 6, 8]
+    assert rec.samples_us()[1] == [0.006, 0.008, 0.010, 0.012]
