@@ -15,7 +15,8 @@ def test_quantile_of_nothing_is_nan() -> None:
 
 @pytest.mark.parametrize(
     ("q", "expected"),
-    [(0.0, 1), (0.1, 1), (0.11, 2), (0.5, 5), (0.55, 6), (0.9, 9), (0.91, 10), (0.99, 10), (1.0, 10)],
+    [(0.0, 1), (0.1, 1), (0.11, 2), (0.5, 5), (0.55, 6), (0.9, 9), (0.91, 10), (0.99, 10),
+     (1.0, 10)],
 )
 def test_quantile_is_nearest_rank(q: float, expected: int) -> None:
     values = list(range(1, 11))
