@@ -45,6 +45,7 @@ class Component:
     _rtcf_resolver: Resolver
     _rtcf_inputs: dict[str, InputPort[Any]]
     _rtcf_outputs: dict[str, OutputPort[Any]]
+    _rtcf_configured: bool
 
     def __init__(self) -> None:
         # Constructed by a runner, the context is attached before __init__ runs; a
@@ -94,10 +95,10 @@ class Component:
 
     def _rtcf_add_port(self, port: Any, table: dict[str, Any]) -> None:
         what = f"component {self.full_name!r}: port name"
-        if self._rtcf_state.running:
+        if self._rtcf_configured:
             raise ComponentError(
-                f"component {self.full_name!r}: add_input/add_output called while the loop "
-                "runs; declare ports in configure()",
+                f"component {self.full_name!r}: add_input/add_output called after configure(); "
+                "declare ports in configure()",
                 component=self.full_name,
             )
         if not isinstance(port.type, type):
@@ -181,6 +182,7 @@ def _attach(
     component._rtcf_resolver = resolver
     component._rtcf_inputs = {}
     component._rtcf_outputs = {}
+    component._rtcf_configured = False
 
 
 def overrides(component: Component, hook: str) -> bool:

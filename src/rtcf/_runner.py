@@ -184,6 +184,7 @@ class Runner:
         self.drain_logs()
         if ok is False:
             raise fail("configure() returned False")
+        component._rtcf_configured = True
         self._loaded[full] = _Loaded(spec, component, ignore)
         self._invalidate()
         return component

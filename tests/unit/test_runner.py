@@ -760,14 +760,14 @@ def test_component_constructed_directly_has_its_own_context() -> None:
     assert len(c.log._ring) == 1
 
 
-def test_adding_ports_while_running_is_refused() -> None:
+def test_adding_ports_after_configure_is_refused() -> None:
     class Late(Component):
         def update(self) -> None:
             self.add_input("late", float)
 
     r = make_runner()
     r.load(ComponentSpec("late", Late))
-    with pytest.raises(ComponentError, match="add_input/add_output called while the loop runs"):
+    with pytest.raises(ComponentError, match="add_input/add_output called after configure"):
         r.run(1)
 
 
@@ -785,3 +785,46 @@ def test_duplicate_port_and_non_class_type_are_refused() -> None:
         make_runner().load(ComponentSpec("d", Dup))
     with pytest.raises(ComponentError, match="which is not a class"):
         make_runner().load(ComponentSpec("n", NotAType))
+
+
+def test_loading_from_inside_the_loop_stops_it_and_the_next_run_includes_the_component() -> None:
+    r = make_runner()
+    r.load(ComponentSpec("src", Counter))
+    loaded: list[Component] = []
+
+    def load_once() -> None:
+        if not loaded and r.state.iteration == 2:
+            loaded.append(r.load(ComponentSpec("relay", Relay, params={"offset": 0.5})))
+
+    first = r.run(10, on_iteration=load_once)
+    assert first.stopped_by == "stop" and first.iterations == 3
+    second = r.run(2)
+    assert second.order == ["/src", "/relay"]  # re-resolved: the relay follows its producer
+    assert second.iterations == 2
+    assert loaded[0].outputs["y"]._slot.value == 4.5  # x of iteration 4, plus 0.5
+
+
+def test_numpy_arrays_pass_by_reference_through_ports() -> None:
+    np = pytest.importorskip("numpy")
+
+    class ArraySource(Component):
+        def configure(self) -> None:
+            self.out = self.add_output("vec", np.ndarray)
+
+        def update(self) -> None:
+            self.out.write(np.full(3, float(self.iteration)))
+
+    class ArraySink(Component):
+        def configure(self) -> None:
+            self.inp = self.add_input("vec", np.ndarray)
+            self.seen: list[object] = []
+
+        def update(self) -> None:
+            self.seen.append(self.inp.read())
+
+    r = make_runner()
+    src = r.load(ComponentSpec("a", ArraySource))
+    sink = r.load(ComponentSpec("b", ArraySink))
+    r.run(3)
+    assert [v.tolist() for v in sink.seen] == [[0.0] * 3, [1.0] * 3, [2.0] * 3]
+    assert sink.seen[-1] is src.outputs["vec"]._slot.value  # no copy on the way
