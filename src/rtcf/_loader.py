@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import importlib
-import sys
 
 from ._component import Component
 from ._errors import ComponentError
@@ -52,7 +51,3 @@ def load_component_class(module: str, class_name: str, *, component: str = "") -
         )
     return cls
 
-
-def forget_module(module: str) -> None:
-    """Drop ``module`` from the import cache (used by tests that rewrite modules)."""
-    sys.modules.pop(module, None)

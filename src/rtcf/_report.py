@@ -56,7 +56,7 @@ def format_summary(result: RunResult, settings: RunnerSettings, wall_s: float) -
     lines.append(row("calculation (iteration)", t.calc_us))
     for name, stats in t.components_us.items():
         lines.append(row(f"  {name}", stats))
-    note = t.merge_note()
+    note = t.coverage_note()
     if note:
         lines.append(f"  ({note})")
     return "\n".join(lines)

@@ -92,7 +92,7 @@ class TimingSummary:
     calc_us: dict[str, float] = field(default_factory=dict)
     components_us: dict[str, dict[str, float]] = field(default_factory=dict)
 
-    def merge_note(self) -> str:
+    def coverage_note(self) -> str:
         if self.samples < self.iterations:
             return f"quantiles over the last {self.samples} of {self.iterations} iterations"
         return ""

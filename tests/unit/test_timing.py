@@ -80,7 +80,7 @@ def test_summary_of_all_samples() -> None:
     assert s.calc_us["mean"] == 20.0
     assert s.components_us["/a"]["max"] == 30.0
     assert s.components_us["/b"]["max"] == 60.0
-    assert s.merge_note() == ""
+    assert s.coverage_note() == ""
 
 
 def test_ring_keeps_the_last_capacity_samples() -> None:
@@ -93,7 +93,7 @@ def test_ring_keeps_the_last_capacity_samples() -> None:
     jitter, calc = rec.samples_us()
     assert jitter == [7.0, 8.0, 9.0, 10.0]  # oldest first
     assert calc == [0.007, 0.008, 0.009, 0.01]
-    assert s.merge_note() == "quantiles over the last 4 of 10 iterations"
+    assert s.coverage_note() == "quantiles over the last 4 of 10 iterations"
 
 
 def test_empty_recorder_summary() -> None:
