@@ -370,6 +370,7 @@ def build_parser() -> argparse.ArgumentParser:
         help="lowest level of component log records shown (default info)",
     )
     launch.set_defaults(func=cmd_launch)
+    _add_debug(launch)
 
     graph = sub.add_parser("graph", help="print components, connections and execution order")
     graph.add_argument("target", nargs="+", metavar="TARGET", help=target_help)
@@ -379,7 +380,16 @@ def build_parser() -> argparse.ArgumentParser:
     check = sub.add_parser("check", help="validate a launch file without running it")
     check.add_argument("target", nargs="+", metavar="TARGET", help=target_help)
     check.set_defaults(func=cmd_check, log_level="warning")
+    _add_debug(graph)
+    _add_debug(check)
     return parser
+
+
+def _add_debug(subparser: argparse.ArgumentParser) -> None:
+    # also after the command (rtcf check FILE --debug); SUPPRESS keeps 'rtcf --debug check'
+    subparser.add_argument(
+        "--debug", action="store_true", default=argparse.SUPPRESS, help="show tracebacks of errors"
+    )
 
 
 def _positive_float(text: str) -> float:

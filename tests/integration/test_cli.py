@@ -264,9 +264,10 @@ def test_debug_shows_the_traceback(tmp_path):
         """
       <node name="ctl" pkg="rtcf" type="rt_launcher" args="no_such_module Thing"/>""",
     )
-    result = run_rtcf("--debug", "check", path)
-    assert result.returncode != 0
-    assert "Traceback" in result.stderr
+    for args in (("--debug", "check", path), ("check", path, "--debug")):
+        result = run_rtcf(*args)
+        assert result.returncode != 0
+        assert "Traceback" in result.stderr
 
 
 def test_missing_file_and_bad_arguments():
