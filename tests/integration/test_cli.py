@@ -332,26 +332,13 @@ def test_parameters_reach_the_component(tmp_path):
 
 
 def test_logging_levels_filter_in_the_component(tmp_path):
-    quiet = run_rtcf(
-        "launch",
-        "rtcf_examples",
-        "logging.launch",
-        "--sim",
-        "--duration",
-        "2",
-        "--log-level",
-        "error",
-    )
-    loud = run_rtcf(
-        "launch",
-        "rtcf_examples",
-        "logging.launch",
-        "--sim",
-        "--duration",
-        "2",
-        "--log-level",
-        "debug",
-    )
+    def run_at(level):
+        return run_rtcf(
+            "launch", "rtcf_examples", "logging.launch", "--sim", "--duration", "2",
+            "--log-level", level,
+        )  # fmt: skip
+
+    quiet, loud = run_at("error"), run_at("debug")
     assert "Test RT debug at iteration 1" in loud.stderr
     assert "[FATAL] #1 [/loggin_test]: Test RT fatal at iteration 1" in loud.stderr
     assert "Test RT info" not in quiet.stderr and "Test RT error at iteration 1" in quiet.stderr
