@@ -3,7 +3,6 @@
 from __future__ import annotations
 
 import argparse
-import csv
 import logging
 import os
 import signal
@@ -20,9 +19,10 @@ from ._deployment import Deployment, RunnerDeployment, plan
 from ._errors import ComponentError, LaunchError, RtcfError
 from ._graph import Graph, to_dot, to_mermaid
 from ._launch_xml import parse_launch_file
-from ._report import format_summary, kernel_preemption, timing_document, write_report
+from ._report import format_summary, write_report
 from ._runner import Runner
 from ._substitutions import find_package
+from ._supervisor import LiveStatus, WorkerRunner
 
 EPILOG = """\
 examples:
@@ -47,7 +47,7 @@ class _Formatter(logging.Formatter):
 
 
 def _setup_logging(level: str) -> None:
-    handler = logging.StreamHandler(sys.stderr)
+    handler = _Handler(sys.stderr)
     handler.setFormatter(_Formatter())
     root = logging.getLogger("rtcf")
     root.handlers[:] = [handler]
@@ -199,14 +199,35 @@ def cmd_launch(ns: argparse.Namespace) -> int:
     deployment = _load(ns.target)
     target = deployment.runner
     settings = target.settings
-    runner = _build_runner(target, deployment, sim=ns.sim, log_level=ns.log_level)
+    status_line = None if ns.quiet else _STATUS
+    runner = WorkerRunner(
+        settings,
+        name=target.name,
+        parameters=deployment.parameters,
+        simulated=ns.sim,
+        log_level=ns.log_level,
+        on_status=status_line.show if status_line else None,
+        on_started=lambda realtime: _say_realtime(realtime, ns.sim),
+    )
     status = 0
+    previous = _install_stop_handlers(runner)
     try:
-        reason = runner.not_ready_reason()
+        runner.start()
+        try:
+            for spec in target.components:
+                runner.load(spec)
+            info = runner.describe()
+        except RtcfError as exc:
+            if exc.file is None:
+                exc.file = deployment.source  # a graph error belongs to the whole file
+            raise
+        for warning in info["warnings"]:
+            _say(f"warning: {target.name}: {warning}")
+        reason = info["not_ready"]
         if settings.mode == "wait_for_trigger" and reason:
             _say("mode wait_for_trigger: no middleware to trigger it, so the loop starts now")
             runner.activate()
-            reason = runner.not_ready_reason()
+            reason = runner.describe()["not_ready"]
         if reason:
             raise LaunchError(
                 f"runner {target.name}: the loop would never start: {reason}",
@@ -217,102 +238,103 @@ def cmd_launch(ns: argparse.Namespace) -> int:
             None if ns.duration is None else max(1, round(ns.duration * settings.frequency))
         )
         _say(
-            f"runner {target.name}: {len(runner.components)} components at "
-            f"{settings.frequency:g} Hz (mode {settings.mode}, wait_policy {settings.wait_policy})"
+            f"runner {target.name}: {len(info['components'])} components at "
+            f"{settings.frequency:g} Hz (mode {settings.mode}, "
+            f"wait_policy {settings.wait_policy}), loop in worker process {runner.pid}"
         )
-        _say("order: " + " -> ".join(runner.order))
-        not_applied = [
-            key
-            for key, on in (
-                ("lock_memory", settings.lock_memory),
-                ("cpu_affinity_mask", settings.cpu_affinity_mask),
-                ("safe_heap_size_kB", settings.safe_heap_size_kB),
-                ("safe_stack_size_kB", settings.safe_stack_size_kB),
-            )
-            if on
-        ]
-        if not_applied and not ns.sim:
-            _say(
-                "note: the loop runs in this process with normal scheduling; "
-                f"{', '.join(not_applied)} and priority are not applied yet"
-            )
+        _say("order: " + " -> ".join(info["order"]))
         if iterations is None:
             _say("running until Ctrl-C")
         else:
             _say(f"running {iterations} iterations ({'simulated' if ns.sim else 'real'} time)")
-        trace = _Trace(runner) if ns.trace else None
-        previous = _install_stop_handlers(runner)
         started = time.perf_counter()
         try:
-            result = runner.run(iterations, on_iteration=trace.sample if trace else None)
+            result = runner.run(iterations, trace=ns.trace)
         except ComponentError as exc:
             _say(f"error: {exc}")
             status = 1
             result = None
         finally:
             wall = time.perf_counter() - started
-            _restore_handlers(previous)
-        if trace is not None:
-            trace.write(ns.trace)
-            _say(f"wrote {ns.trace} ({len(trace.rows)} iterations)")
+            if status_line:
+                status_line.clear()
+        if ns.trace and result is not None:
+            _say(f"wrote {ns.trace}")
         if result is not None:
             print(format_summary(result, settings, wall), flush=True)
             if ns.report:
-                realtime = {
-                    "scheduler": "SCHED_OTHER",
-                    "priority": None,
-                    "mlockall": False,
-                    "cpu_affinity": sorted(os.sched_getaffinity(0)),
-                    "kernel_preemption": kernel_preemption(),
-                    "in_process": True,
-                }
-                path = write_report(ns.report, timing_document(result, settings, wall, realtime))
-                _say(f"wrote {path}")
+                for path in write_report(ns.report, result, settings, wall):
+                    _say(f"wrote {path}")
             if result.log_records_dropped:
                 _say(
                     f"warning: {result.log_records_dropped} log records were dropped "
                     "(the log ring was full); log less often from update()"
                 )
-    finally:
         for err in runner.shutdown():
             _say(f"error: {err}")
             status = 1
+    finally:
+        _restore_handlers(previous)
+        runner.close()
     return status
 
 
-class _Trace:
-    """Every output topic's value after every iteration (for --trace; not real-time)."""
+def _say_realtime(realtime: dict[str, Any], simulated: bool) -> None:
+    if simulated:
+        _say("simulated clock: no real-time settings applied")
+        return
+    for item in realtime.get("applied", []):
+        state = "applied" if item["ok"] else "NOT applied"
+        _say(f"real-time: {item['name']}: {state}: {item['detail']}")
+    _say(
+        f"real-time: kernel {realtime.get('kernel_preemption')}, "
+        f"RT throttling {realtime.get('rt_throttling')}"
+    )
 
-    def __init__(self, runner: Runner) -> None:
-        ports = sorted(
-            (p for c in runner.components.values() for p in c.outputs.values()),
-            key=lambda p: p.topic,
+
+class _StatusLine:
+    """One line on a terminal that shows progress; log lines print above it."""
+
+    def __init__(self) -> None:
+        self.shown = False
+
+    def show(self, st: LiveStatus) -> None:
+        if not sys.stderr.isatty():
+            return
+        text = (
+            f"{st.elapsed_s:7.1f} s  {st.iterations:>9} iterations  {st.overruns} overruns  "
+            f"jitter p99.9 {st.jitter_p999_us:.1f} µs  calc p99.9 {st.calc_p999_us:.1f} µs  "
+            f"max {st.calc_max_us:.1f} µs"
         )
-        self.topics = [p.topic for p in ports]
-        self._slots = [p._slot for p in ports]
-        self._state = runner.state
-        self.rows: list[list[Any]] = []
+        if st.log_records_dropped:
+            text += f"  {st.log_records_dropped} log records dropped"
+        sys.stderr.write("\r" + text + "\x1b[K")
+        sys.stderr.flush()
+        self.shown = True
 
-    def sample(self) -> None:
-        s = self._state
-        self.rows.append([s.iteration, s.time_ns, *(slot.value for slot in self._slots)])
-
-    def write(self, path: str) -> None:
-        with open(path, "w", newline="") as f:
-            out = csv.writer(f)
-            out.writerow(["iteration", "time_ns", *self.topics])
-            for row in self.rows:
-                out.writerow([row[0], row[1], *(_cell(v) for v in row[2:])])
+    def clear(self) -> None:
+        if self.shown:
+            sys.stderr.write("\r\x1b[K")
+            sys.stderr.flush()
+            self.shown = False
 
 
-def _cell(value: Any) -> str:
-    return "" if value is None else repr(value) if isinstance(value, float) else str(value)
+_STATUS = _StatusLine()
 
 
-def _install_stop_handlers(runner: Runner) -> dict[int, Any]:
+class _Handler(logging.StreamHandler):  # type: ignore[type-arg,unused-ignore]
+    """Clears the status line before a log line, so the two never mix."""
+
+    def emit(self, record: logging.LogRecord) -> None:
+        _STATUS.clear()
+        super().emit(record)
+
+
+def _install_stop_handlers(runner: WorkerRunner) -> dict[int, Any]:
     def handler(signum: int, frame: FrameType | None) -> None:
-        if runner.stop_flag.requested:  # a second Ctrl-C: give up waiting
+        if runner.stop_requested:  # a second Ctrl-C: give up waiting
             raise KeyboardInterrupt
+        _STATUS.clear()
         _say(f"{signal.Signals(signum).name}: stopping after this iteration")
         runner.request_stop()
 
@@ -357,7 +379,10 @@ def build_parser() -> argparse.ArgumentParser:
         action="store_true",
         help="run on a simulated clock as fast as possible (deterministic)",
     )
-    launch.add_argument("--report", metavar="DIR", help="write timing.json into DIR")
+    launch.add_argument(
+        "--report", metavar="DIR", help="write timing.json and timing.png (histograms) into DIR"
+    )
+    launch.add_argument("--quiet", action="store_true", help="no live status line on a terminal")
     launch.add_argument(
         "--trace",
         metavar="CSV",

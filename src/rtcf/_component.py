@@ -21,10 +21,11 @@ A component whose ``update`` is not overridden costs nothing in the loop.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from typing import Any, TypeVar
 
 from ._errors import ComponentError
-from ._log import ComponentLogger, LogRing
+from ._log import ComponentLogger, LogRing, RecordSink
 from ._loop_state import LoopState
 from ._names import Resolver, join, validate_name
 from ._params import ParameterStore, Params
@@ -169,15 +170,16 @@ def _attach(
     namespace: str,
     resolver: Resolver,
     store: ParameterStore,
-    ring: LogRing,
+    ring: RecordSink,
     state: LoopState,
+    emit: Callable[[int, str, str, int, int], None] | None = None,
 ) -> None:
     """Give ``component`` its identity and its access to the runner (before __init__)."""
     component.name = name
     component.namespace = namespace
     full = join(namespace, name)
     component.params = Params(store, resolver, full)
-    component.log = ComponentLogger(full, ring, state)
+    component.log = ComponentLogger(full, ring, state, emit=emit)
     component._rtcf_state = state
     component._rtcf_resolver = resolver
     component._rtcf_inputs = {}

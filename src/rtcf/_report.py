@@ -62,12 +62,13 @@ def format_summary(result: RunResult, settings: RunnerSettings, wall_s: float) -
     return "\n".join(lines)
 
 
-def timing_document(
-    result: RunResult, settings: RunnerSettings, wall_s: float, realtime: dict[str, Any]
-) -> dict[str, Any]:
+def timing_document(result: RunResult, settings: RunnerSettings, wall_s: float) -> dict[str, Any]:
+    """timing.json: what ran, what the worker applied, the quantiles and the histograms."""
     t = result.timing
-    keep = ("min", "p50", "p99", "p999", "max", "mean")
-    return {
+    keep = ("min", "p50", "p90", "p99", "p999", "max", "mean")
+    realtime = dict(result.realtime or {})
+    realtime.setdefault("kernel_preemption", kernel_preemption())
+    doc: dict[str, Any] = {
         "frequency_hz": settings.frequency,
         "iterations": result.iterations,
         "overruns": t.overruns,
@@ -83,19 +84,69 @@ def timing_document(
             for name, stats in t.components_us.items()
         },
         "samples": t.samples,
+        "timing_rows_dropped": t.iterations - t.samples if not result.simulated else 0,
         "log_records_dropped": result.log_records_dropped,
-        "machine": {
-            "cores": os.cpu_count(),
-            "kernel": platform.release(),
-            "python": platform.python_version(),
-            "load_1min": os.getloadavg()[0] if hasattr(os, "getloadavg") else None,
-        },
+        "machine": machine(),
+    }
+    if result.aggregate is not None and not result.simulated:
+        doc["histograms_ns"] = result.aggregate.histograms()
+    return doc
+
+
+def machine() -> dict[str, Any]:
+    """Where the numbers were measured."""
+    model = ""
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                model = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    return {
+        "cores": os.cpu_count(),
+        "cpu": model,
+        "kernel": platform.release(),
+        "kernel_version": platform.version(),
+        "python": platform.python_version(),
+        "load_1min": os.getloadavg()[0] if hasattr(os, "getloadavg") else None,
     }
 
 
-def write_report(directory: str | os.PathLike[str], document: dict[str, Any]) -> Path:
+def write_report(
+    directory: str | os.PathLike[str], result: RunResult, settings: RunnerSettings, wall_s: float
+) -> list[Path]:
+    """Write timing.json and, unless the clock was simulated, timing.png into ``directory``."""
     out = Path(directory)
     out.mkdir(parents=True, exist_ok=True)
+    doc = timing_document(result, settings, wall_s)
     path = out / "timing.json"
-    path.write_text(json.dumps(document, indent=2) + "\n")
-    return path
+    path.write_text(json.dumps(doc, indent=2) + "\n")
+    written = [path]
+    if result.aggregate is not None and not result.simulated:
+        from ._plot import plot_timing  # matplotlib only when a plot is asked for
+
+        m = doc["machine"]
+        rt = doc["realtime"]
+        sched = rt.get("scheduler", "?")
+        if rt.get("priority"):
+            sched += f" {rt['priority']}"
+        written.append(
+            plot_timing(
+                out / "timing.png",
+                result.aggregate.calc,
+                result.aggregate.jitter,
+                title=(
+                    f"{len(result.order)} components at {settings.frequency:g} Hz, "
+                    f"{result.iterations} iterations "
+                    f"({result.iterations / settings.frequency:.0f} s)"
+                ),
+                subtitle=(
+                    f"{m['cores']} cores {m['cpu']}, Linux {m['kernel']} "
+                    f"({rt.get('kernel_preemption')}), {sched}, "
+                    f"mlockall {'on' if rt.get('mlockall') else 'off'}, "
+                    f"load {m['load_1min']:.2f}"
+                ),
+            )
+        )
+    return written

@@ -13,6 +13,7 @@ from collections.abc import Callable, Iterable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
+from ._channels import Ring
 from ._clock import Clock, MonotonicClock
 from ._component import Component, _attach, overrides
 from ._errors import ComponentError, ConfigurationError, RtcfError
@@ -20,12 +21,12 @@ from ._executor import Executor, StopFlag, UpdateFailure
 from ._graph import Graph, GraphNode, PortInfo, build_graph
 from ._launch_description import Location
 from ._loader import load_component_class
-from ._log import LogLevel, LogRecord, LogRing, PythonLoggingSink
+from ._log import LogLevel, LogRecord, LogRing, PythonLoggingSink, RecordSink
 from ._loop_state import LoopState
 from ._names import Resolver, join, normalize_namespace, validate_name
 from ._params import ParameterStore
 from ._settings import RunnerSettings
-from ._timing import TimingRecorder, TimingSummary
+from ._timing import TimingAggregate, TimingSummary, TimingWriter, local_ring
 
 
 @dataclass
@@ -78,6 +79,9 @@ class RunResult:
     order: list[str]
     log_records_dropped: int
     simulated: bool
+    # filled in by a supervisor: what the worker applied, and the full histograms
+    realtime: dict[str, Any] | None = None
+    aggregate: TimingAggregate | None = None
 
 
 class Runner:
@@ -93,16 +97,23 @@ class Runner:
         log_sink: Callable[[LogRecord], None] | None = None,
         log_capacity: int = 4096,
         log_level: int | str = "info",
-        timing_capacity: int = 1 << 18,
+        timing_capacity: int = 1 << 12,
+        log_ring: RecordSink | None = None,
+        log_emit: Callable[[int, str, str, int, int], None] | None = None,
+        stop_flag: StopFlag | None = None,
     ) -> None:
         self.settings = settings or RunnerSettings()
         self.name = name
         self.clock: Clock = clock or MonotonicClock()
         self.parameters = parameters if parameters is not None else ParameterStore()
         self.state = LoopState(self.settings.frequency)
-        self.log_ring = LogRing(log_capacity)
+        # in a worker the records go to shared memory and the supervisor drains them
+        self.log_ring: RecordSink = log_ring if log_ring is not None else LogRing(log_capacity)
         self.log_sink = log_sink or PythonLoggingSink()
-        self.stop_flag = StopFlag()
+        self._log_emit = log_emit or self._emit_now
+        # a worker's flag is a shared-memory word the supervisor sets and clears
+        self._owns_stop_flag = stop_flag is None
+        self.stop_flag = stop_flag if stop_flag is not None else StopFlag()
         self.log_level = LogLevel[log_level.upper()] if isinstance(log_level, str) else log_level
         self._timing_capacity = timing_capacity
         self._loaded: dict[str, _Loaded] = {}
@@ -170,6 +181,7 @@ class Runner:
             store=self.parameters,
             ring=self.log_ring,
             state=self.state,
+            emit=self._log_emit,
         )
         component.log.set_level(self.log_level)
         try:
@@ -274,12 +286,10 @@ class Runner:
         # components whose update is not overridden cost nothing in the loop
         scheduled = [n for n in graph.order if overrides(self._loaded[n].component, "update")]
         self._schedule = scheduled
-        recorder = TimingRecorder(scheduled, self._timing_capacity)
         executor = Executor(
             [self._loaded[n].component.update for n in scheduled],
             self.clock,
             self.state,
-            recorder,
             wait_policy=self.settings.wait_policy,
         )
         previous = self._executor or self._previous
@@ -314,11 +324,14 @@ class Runner:
         *,
         on_iteration: Callable[[], object] | None = None,
         drain_logs_every_iteration: bool = True,
+        timing_ring: Ring | None = None,
     ) -> RunResult:
         """Run the loop for ``iterations`` iterations, or until :meth:`request_stop`.
 
-        Raises ComponentError naming the component and iteration when an update
-        raises; the components stay loaded (call :meth:`shutdown`).
+        Timing rows go to ``timing_ring`` when given (a worker's shared memory, which
+        the supervisor aggregates); otherwise to a ring in this process, aggregated
+        here. Raises ComponentError naming the component and iteration when an
+        update raises; the components stay loaded (call :meth:`shutdown`).
         """
         reason = self.not_ready_reason()
         if reason is not None:
@@ -327,9 +340,17 @@ class Runner:
             self._executor = self._compile()
         executor = self._executor
         self._start_components()
-        executor.idle = self._idle_hook(on_iteration, drain_logs_every_iteration)
-        self.stop_flag.requested = False
-        stopped_by = "count"
+        aggregate = None
+        if timing_ring is None:
+            timing_ring = local_ring(len(self._schedule), self._timing_capacity)
+            aggregate = TimingAggregate()
+        writer = TimingWriter(self._schedule, timing_ring)
+        executor.timing = writer
+        executor.idle = self._idle_hook(
+            on_iteration, drain_logs_every_iteration, aggregate, timing_ring
+        )
+        if self._owns_stop_flag:
+            self.stop_flag.clear()
         try:
             ran = executor.run(iterations, self.stop_flag)
         except UpdateFailure as failure:
@@ -344,28 +365,43 @@ class Runner:
             ) from exc
         finally:
             executor.idle = None
+            executor.timing = None
+            writer.release()
         self.drain_logs()
-        if iterations is None or ran < iterations:
-            stopped_by = "stop"
+        stopped_by = "count" if iterations is not None and ran >= iterations else "stop"
+        if aggregate is not None:
+            aggregate.finish(timing_ring, self._schedule)
+            timing = aggregate.summary(writer.count, writer.overruns)
+        else:
+            timing = TimingSummary(iterations=writer.count, samples=0, overruns=writer.overruns)
         return RunResult(
             iterations=ran,
             stopped_by=stopped_by,
-            timing=executor.recorder.summary(),
+            timing=timing,
             order=list(self.graph.order),
             log_records_dropped=self.log_ring.dropped,
             simulated=bool(getattr(self.clock, "simulated", False)),
         )
 
     def _idle_hook(
-        self, on_iteration: Callable[[], object] | None, drain: bool
+        self,
+        on_iteration: Callable[[], object] | None,
+        drain: bool,
+        aggregate: TimingAggregate | None,
+        timing_ring: Ring,
     ) -> Callable[[], object] | None:
-        ring, sink = self.log_ring, self.log_sink
-        if not drain:
+        ring = self.log_ring if isinstance(self.log_ring, LogRing) else None
+        sink = self.log_sink
+        names = self._schedule
+        half = timing_ring.capacity // 2
+        if not drain and aggregate is None:
             return on_iteration
 
         def idle() -> None:
-            if ring._head != ring._tail:
+            if drain and ring is not None and len(ring):
                 ring.drain(sink, 64)
+            if aggregate is not None and len(timing_ring) >= half:
+                aggregate.consume(timing_ring, names)
             if on_iteration is not None:
                 on_iteration()
 
@@ -376,10 +412,6 @@ class Runner:
         self.stop_flag.set()
 
     @property
-    def recorder(self) -> TimingRecorder | None:
-        return self._executor.recorder if self._executor else None
-
-    @property
     def schedule(self) -> list[str]:
         """Components whose update the loop calls, in order (those that override it)."""
         if self._executor is None:
@@ -387,7 +419,16 @@ class Runner:
         return list(self._schedule)
 
     def drain_logs(self) -> int:
-        return self.log_ring.drain(self.log_sink)
+        ring = self.log_ring
+        return ring.drain(self.log_sink) if isinstance(ring, LogRing) else 0
+
+    def _emit_now(self, level: int, logger: str, text: str, iteration: int, time_ns: int) -> None:
+        """Non-real-time logging in this process: after what the ring holds, in order."""
+        self.drain_logs()
+        rec = LogRecord()
+        rec.level, rec.logger, rec.msg = level, logger, text
+        rec.iteration, rec.time_ns = iteration, time_ns
+        self.log_sink(rec)
 
     def shutdown(self) -> list[ComponentError]:
         """Stop and clean up every component, last in the order first.

@@ -9,7 +9,16 @@ import pytest
 from rtcf import MonotonicClock, SimClock
 from rtcf._executor import Executor, StopFlag, UpdateFailure
 from rtcf._loop_state import LoopState
-from rtcf._timing import TimingRecorder
+from rtcf._timing import (
+    COL_CALC,
+    COL_ITERATION,
+    COL_JITTER,
+    COL_OVERRAN,
+    COL_SCHEDULED,
+    FIXED_COLUMNS,
+    TimingWriter,
+    local_ring,
+)
 
 P = 1_000_000  # period at 1 kHz
 
@@ -37,14 +46,37 @@ def _executor(
 ) -> tuple[Executor, list[Probe]]:
     state = LoopState(1000.0)
     probes = [Probe(state) for _ in range(updates)]
-    rec = TimingRecorder([f"/c{i}" for i in range(updates)], capacity)
-    return Executor(probes, clock, state, rec, wait_policy=policy), probes
+    timing = TimingWriter([f"/c{i}" for i in range(updates)], local_ring(updates, capacity))
+    return Executor(probes, clock, state, timing, wait_policy=policy), probes
+
+
+def _writer(ex: Executor) -> TimingWriter:
+    assert ex.timing is not None
+    return ex.timing
+
+
+_SEEN: dict[int, list[list[int]]] = {}
+
+
+def _rows(ex: Executor) -> list[list[int]]:
+    """Every row the executor committed so far (drained from its ring and kept)."""
+    timing = _writer(ex)
+    kept = _SEEN.setdefault(id(timing), [])
+    ring = timing.ring
+    while (row := ring.pop()) is not None:
+        words = memoryview(row).cast("q")
+        kept.append(list(words[: timing.width]))
+        words.release()
+    return kept
 
 
 def _jitter_calc(ex: Executor) -> tuple[list[int], list[int]]:
-    rec = ex.recorder
-    n = rec.count
-    return [rec.jitter[i] for i in range(n)], [rec.calc[i] for i in range(n)]
+    rows = _rows(ex)
+    return [r[COL_JITTER] for r in rows], [r[COL_CALC] for r in rows]
+
+
+def _per_component(ex: Executor) -> list[int]:
+    return [t for r in _rows(ex) for t in r[FIXED_COLUMNS:]]
 
 
 # -- SimClock --------------------------------------------------------------------
@@ -103,8 +135,12 @@ def test_jitter_and_calc_are_exactly_the_simulated_values() -> None:
     jitter, calc = _jitter_calc(ex)
     assert jitter == [1000, 2000, 3000]
     assert calc == [10_000, 20_000, 30_000]
-    assert list(ex.recorder.per_component[:3]) == [10_000, 20_000, 30_000]
-    assert ex.recorder.overruns == 0
+    assert _per_component(ex) == [10_000, 20_000, 30_000]
+    assert _writer(ex).overruns == 0
+    rows = _rows(ex)
+    assert [r[COL_ITERATION] for r in rows] == [0, 1, 2]
+    assert [r[COL_SCHEDULED] for r in rows] == [0, P, 2 * P]
+    assert [r[COL_OVERRAN] for r in rows] == [0, 0, 0]
     assert probe.seen == [(0, 0, True), (1, P, True), (2, 2 * P, True)]
     assert ex.state.running is False
     assert ex.state.iteration == 2
@@ -115,9 +151,8 @@ def test_per_component_times_are_split() -> None:
     clock = SimClock(cost_ns=_costs({2: 100, 3: 300, 5: 500, 6: 700}))
     ex, _ = _executor(clock, updates=2)
     ex.run(2, StopFlag())
-    rec = ex.recorder
-    assert list(rec.per_component[:4]) == [100, 300, 500, 700]
-    assert [rec.calc[0], rec.calc[1]] == [400, 1200]
+    assert _per_component(ex) == [100, 300, 500, 700]
+    assert _jitter_calc(ex)[1] == [400, 1200]
 
 
 def test_time_ns_is_relative_to_the_first_scheduled_start() -> None:
@@ -142,7 +177,8 @@ def test_absolute_policy_catches_up_back_to_back() -> None:
     assert jitter == [0, 0, 3 * P // 2, P // 2, 0]
     assert calc == [0, 5 * P // 2, 0, 0, 0]
     # iteration 1 ended after 2P, iteration 2 ended after 3P
-    assert ex.recorder.overruns == 2
+    assert _writer(ex).overruns == 2
+    assert [r[COL_OVERRAN] for r in _rows(ex)] == [0, 1, 1, 0, 0]
     # scheduled times stay on the grid
     assert [t for _, t, _ in probe.seen] == [0, P, 2 * P, 3 * P, 4 * P]
 
@@ -158,7 +194,7 @@ def test_relative_policy_reanchors_after_an_overrun() -> None:
     assert starts == [0, P, 9 * P // 2, 11 * P // 2, 13 * P // 2]
     assert jitter == [0, 0, 0, 0, 0]
     assert calc == [0, 5 * P // 2, 0, 0, 0]
-    assert ex.recorder.overruns == 1
+    assert _writer(ex).overruns == 1
     assert [t for _, t, _ in probe.seen] == [0, P, 9 * P // 2, 11 * P // 2, 13 * P // 2]
 
 
@@ -166,7 +202,7 @@ def test_calc_exactly_one_period_is_not_an_overrun() -> None:
     clock = SimClock(cost_ns=_costs({2: P}))
     ex, _ = _executor(clock)
     ex.run(2, StopFlag())
-    assert ex.recorder.overruns == 0
+    assert _writer(ex).overruns == 0
     assert _jitter_calc(ex)[0] == [0, 0]
 
 
@@ -176,7 +212,7 @@ def test_late_wakeup_counts_as_overrun_when_it_ends_past_the_next_deadline() -> 
     ex.run(3, StopFlag())
     jitter, _ = _jitter_calc(ex)
     assert jitter == [P + 1, 1, 0]
-    assert ex.recorder.overruns == 1
+    assert _writer(ex).overruns == 1
 
 
 def test_stop_flag_ends_after_the_current_iteration() -> None:
@@ -194,7 +230,7 @@ def test_stop_flag_set_before_run_runs_nothing() -> None:
     stop.set()
     assert ex.run(10, stop) == 0
     assert probe.seen == []
-    assert ex.recorder.count == 0
+    assert _writer(ex).count == 0
 
 
 def test_run_zero_iterations() -> None:
@@ -206,7 +242,7 @@ def test_run_zero_iterations() -> None:
 def test_idle_runs_after_each_recorded_iteration() -> None:
     ex, _ = _executor(SimClock())
     counts: list[int] = []
-    ex.idle = lambda: counts.append(ex.recorder.count)
+    ex.idle = lambda: counts.append(_writer(ex).ring.produced)  # the row is committed
     ex.run(3, StopFlag())
     assert counts == [1, 2, 3]
 
@@ -220,7 +256,7 @@ def test_update_failure_carries_index_iteration_and_time() -> None:
 
     ex, (probe,) = _executor(SimClock())
     ex.updates = (probe, bad)
-    ex.recorder = TimingRecorder(["/a", "/b"], 16)
+    ex.timing = TimingWriter(["/a", "/b"], local_ring(2, 16))
     state_holder.append(ex)
     with pytest.raises(UpdateFailure) as info:
         ex.run(10, StopFlag())
@@ -231,7 +267,7 @@ def test_update_failure_carries_index_iteration_and_time() -> None:
     assert isinstance(failure.error, ValueError)
     assert failure.__cause__ is failure.error
     assert ex.state.running is False
-    assert ex.recorder.count == 3  # the failed iteration is not recorded
+    assert _writer(ex).count == 3  # the failed iteration is not recorded
     assert [i for i, _, _ in probe.seen] == [0, 1, 2, 3]
 
 
@@ -264,7 +300,7 @@ def test_a_second_run_continues_iterations_and_the_time_grid() -> None:
     assert ex.run(2, StopFlag()) == 2
     assert ex.run(2, StopFlag()) == 2
     assert [(i, t) for i, t, _ in probe.seen] == [(0, 0), (1, P), (2, 2 * P), (3, 3 * P)]
-    assert ex.recorder.count == 4
+    assert _writer(ex).count == 4
     assert _jitter_calc(ex)[0] == [0, 0, 0, 0]
 
 
@@ -279,19 +315,46 @@ def test_run_after_a_failure_resumes_at_the_next_slot() -> None:
             raise ValueError
 
     ex.updates = (probe, flaky)
-    ex.recorder = TimingRecorder(["/a", "/b"], 16)
+    ex.timing = TimingWriter(["/a", "/b"], local_ring(2, 16))
     with pytest.raises(UpdateFailure):
         ex.run(5, StopFlag())
     ex.run(2, StopFlag())
     assert [(i, t) for i, t, _ in probe.seen] == [(0, 0), (1, P), (2, 2 * P), (3, 3 * P)]
 
 
-def test_recorder_ring_wraps() -> None:
+def test_full_ring_drops_rows_and_counts_them() -> None:
     clock = SimClock(cost_ns=lambda n: n if n % 2 == 0 else 0)  # calc of iteration k: 2+2k
     ex, _ = _executor(clock, capacity=4)
     ex.run(6, StopFlag())
-    rec = ex.recorder
-    assert rec.count == 6
-    # slots 0 and 1 were overwritten by iterations 4 and 5
-    assert list(rec.calc) == [10, 12, 6, 8]
-    assert rec.samples_us()[1] == [0.006, 0.008, 0.010, 0.012]
+    timing = _writer(ex)
+    assert timing.count == 6
+    assert timing.ring.dropped == 2  # iterations 4 and 5 found the ring full
+    assert [r[COL_ITERATION] for r in _rows(ex)] == [0, 1, 2, 3]
+    assert _jitter_calc(ex)[1] == [2, 4, 6, 8]
+
+
+def test_a_drained_ring_keeps_every_row() -> None:
+    ex, _ = _executor(SimClock(), capacity=4)
+    ex.idle = lambda: _rows(ex)
+    ex.run(10, StopFlag())
+    assert _writer(ex).ring.dropped == 0
+    assert [r[COL_ITERATION] for r in _rows(ex)] == list(range(10))
+
+
+def test_a_run_without_timing_writer_is_refused() -> None:
+    ex, _ = _executor(SimClock())
+    ex.timing = None
+    with pytest.raises(RuntimeError, match="timing writer"):
+        ex.run(1, StopFlag())
+
+
+def test_stop_flag_lives_in_any_int64_cell() -> None:
+    from array import array
+
+    cell = array("q", [0])
+    flag = StopFlag(cell)
+    assert not flag.requested
+    cell[0] = 2  # what a supervisor writes into shared memory
+    assert flag.requested
+    flag.clear()
+    assert cell[0] == 0 and not flag.requested

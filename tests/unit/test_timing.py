@@ -3,10 +3,21 @@
 from __future__ import annotations
 
 import math
+from array import array
 
 import pytest
 
-from rtcf._timing import TimingRecorder, TimingSummary, quantile, summarize_ns
+from rtcf._channels import Ring
+from rtcf._timing import (
+    FIXED_COLUMNS,
+    TimingAggregate,
+    TimingSummary,
+    local_ring,
+    quantile,
+    ring_capacity,
+    row_size,
+    summarize_ns,
+)
 
 
 def test_quantile_of_nothing_is_nan() -> None:
@@ -51,52 +62,71 @@ def test_summarize_ns_in_microseconds() -> None:
     assert summarize_ns([]) == {}
 
 
-def _fill(rec: TimingRecorder, jitter: list[int], calc: list[int]) -> None:
-    for j, c in zip(jitter, calc, strict=True):
-        slot = rec.count & rec.mask
-        rec.jitter[slot] = j
-        rec.calc[slot] = c
-        for k in range(len(rec.components)):
-            rec.per_component[slot * len(rec.components) + k] = c * (k + 1)
-        rec.count += 1
+def _push_rows(ring: Ring, rows: list[list[int]]) -> None:
+    for row in rows:
+        record = array("q", row + [0] * (ring.record_size // 8 - len(row)))
+        assert ring.push(record.tobytes())
 
 
-def test_recorder_capacity_rounds_up() -> None:
-    assert TimingRecorder([], 5).capacity == 8
-    assert TimingRecorder([], 8).capacity == 8
-    assert TimingRecorder([], 0).capacity == 1
-    assert len(TimingRecorder(["a", "b"], 4).per_component) == 8
-    assert len(TimingRecorder([], 4).per_component) == 4
+def _row(i: int, jitter: int, calc: int, per: list[int], overran: int = 0) -> list[int]:
+    return [i, i * 1000, jitter, calc, overran, *per]
 
 
-def test_summary_of_all_samples() -> None:
-    rec = TimingRecorder(["/a", "/b"], 8)
-    _fill(rec, [1000, 3000, 2000], [10_000, 30_000, 20_000])
-    rec.overruns = 1
-    s = rec.summary()
-    assert (s.iterations, s.samples, s.overruns) == (3, 3, 1)
-    assert s.jitter_us["min"] == 1.0 and s.jitter_us["max"] == 3.0
-    assert s.jitter_us["p50"] == 2.0
-    assert s.calc_us["mean"] == 20.0
-    assert s.components_us["/a"]["max"] == 30.0
-    assert s.components_us["/b"]["max"] == 60.0
+def test_row_size_and_capacity_budget() -> None:
+    assert row_size(0) == 8 * FIXED_COLUMNS
+    assert row_size(5) == 80
+    assert ring_capacity(5) == 1 << 16  # 16 MiB is far more than 2^16 rows of 80 bytes
+    assert ring_capacity(1000) == 2048
+    assert ring_capacity(10**6) == 256  # never fewer than 256 rows
+
+
+def test_aggregate_counts_quantiles_and_components() -> None:
+    ring = local_ring(2, 8)
+    _push_rows(
+        ring,
+        [_row(i, 1000 * (i + 1), 2000 * (i + 1), [500, 1500 * (i + 1)], i % 2) for i in range(4)],
+    )
+    agg = TimingAggregate()
+    assert agg.consume(ring, ["/a", "/b"]) == 4
+    assert len(ring) == 0
+    assert agg.rows == 4 and agg.overruns == 2 and agg.last_iteration == 3
+    s = agg.summary()
+    assert s.iterations == 4 and s.samples == 4 and s.overruns == 2
+    assert s.jitter_us["min"] == 1.0 and s.jitter_us["max"] == 4.0
+    assert s.calc_us["p50"] == pytest.approx(4.0, rel=1 / 128)
+    assert s.components_us["/a"]["max"] == 0.5
+    assert s.components_us["/b"]["max"] == 6.0
     assert s.coverage_note() == ""
 
 
-def test_ring_keeps_the_last_capacity_samples() -> None:
-    rec = TimingRecorder(["/a"], 4)
-    _fill(rec, list(range(1000, 11000, 1000)), list(range(1, 11)))  # 10 samples
-    s = rec.summary()
-    assert (s.iterations, s.samples) == (10, 4)
-    assert s.jitter_us["min"] == 7.0  # samples 7..10 thousand ns remain
-    assert s.jitter_us["max"] == 10.0
-    jitter, calc = rec.samples_us()
-    assert jitter == [7.0, 8.0, 9.0, 10.0]  # oldest first
-    assert calc == [0.007, 0.008, 0.009, 0.01]
-    assert s.coverage_note() == "quantiles over the last 4 of 10 iterations"
+def test_aggregate_drains_across_the_wrap_and_counts_drops() -> None:
+    ring = local_ring(1, 4)
+    agg = TimingAggregate()
+    _push_rows(ring, [_row(i, 10, 20, [20]) for i in range(3)])
+    agg.consume(ring, ["/a"])
+    _push_rows(ring, [_row(i, 10, 20, [20]) for i in range(3, 7)])  # wraps around
+    assert not ring.push(bytearray(ring.record_size))  # full: dropped and counted
+    agg.finish(ring, ["/a"])
+    assert agg.rows == 7 and agg.last_iteration == 6
+    assert agg.dropped == 1
+    s = agg.summary()
+    assert s.iterations == 8 and s.samples == 7
+    assert "7 of 8 iterations" in s.coverage_note()
 
 
-def test_empty_recorder_summary() -> None:
-    s = TimingRecorder(["/a"], 4).summary()
-    assert s == TimingSummary(0, 0, 0, {}, {}, {"/a": {}})
-    assert TimingRecorder([], 4).samples_us() == ([], [])
+def test_aggregate_summary_takes_the_loops_own_counts() -> None:
+    agg = TimingAggregate()
+    s = agg.summary(iterations=5, overruns=1)
+    assert (s.iterations, s.samples, s.overruns) == (5, 0, 1)
+    assert s.jitter_us == {} and s.components_us == {}
+
+
+def test_histograms_are_json_ready() -> None:
+    import json
+
+    ring = local_ring(1, 4)
+    _push_rows(ring, [_row(0, 10, 20, [20])])
+    agg = TimingAggregate()
+    agg.consume(ring, ["/a"])
+    doc = json.loads(json.dumps(agg.histograms()))
+    assert doc["calc"]["count"] == 1 and set(doc["components"]) == {"/a"}

@@ -1,0 +1,295 @@
+"""What the framework costs: rtcf's Fig. 1 loop versus a plain Python loop doing the same sums.
+
+Both run as their own process, one after the other, at SCHED_FIFO 80 on the same CPU,
+at 2 kHz with absolute deadlines, for the same duration; both read ``time.monotonic_ns``
+around the work. The ratio rtcf / plain per quantile is the framework's cost (ports,
+per-component timing, the schedule) over the payload, and the jitter columns show
+what it costs on wake-up. Then, without sleeping and in this process, tight loops give
+ns per iteration of the same work at each layer: a noise-free complement.
+
+    .venv/bin/python benchmarks/overhead.py [--duration S] [--quick]
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import subprocess
+import sys
+import time
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import _common as c
+
+NAME = "overhead"
+FREQUENCY = 2000.0
+TARGET_RATIO = 1.5
+
+
+def run_plain(duration: float) -> dict[str, Any]:
+    """The plain loop in its own process, same priority and CPU as rtcf's loop."""
+    cmd = [
+        sys.executable,
+        str(Path(__file__).with_name("_plain_loop.py")),
+        "--frequency",
+        str(FREQUENCY),
+        "--duration",
+        f"{duration:g}",
+        "--cpu",
+        str(c.RT_CPU),
+        "--priority",
+        str(c.PRIORITY),
+    ]
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        out, err = proc.communicate(timeout=duration * 3 + 60)
+    finally:
+        c._stop(proc)
+    if proc.returncode != 0:
+        raise c.BenchmarkError(f"plain loop failed (exit {proc.returncode}): {err.strip()}")
+    data: dict[str, Any] = json.loads(out)
+    data["command"] = " ".join(cmd)
+    return data
+
+
+# -- in-process tight loops -------------------------------------------------------------
+
+
+def plain_inline(n: int) -> float:
+    """Fig. 1's sums inline on locals, n iterations."""
+    r1 = r3 = g2 = z = 0.0
+    for _ in range(n):
+        h1 = r3 + r1 + z + z
+        f1 = h1 + z + z + z
+        r1 = h1 + z + z + z
+        r2 = f1 + h1 + r1 + g2
+        r3 = f1 + r2 + z + z
+    return r3
+
+
+def plain_inline_timed(n: int) -> float:
+    """The same with the two clock reads that the real-time plain loop makes."""
+    now = time.monotonic_ns
+    r1 = r3 = g2 = z = 0.0
+    for _ in range(n):
+        t0 = now()
+        h1 = r3 + r1 + z + z
+        f1 = h1 + z + z + z
+        r1 = h1 + z + z + z
+        r2 = f1 + h1 + r1 + g2
+        r3 = f1 + r2 + z + z
+        _ = now() - t0
+    return r3
+
+
+def _mimo(a: float, b: float, c_: float, d: float) -> float:
+    return a + b + c_ + d
+
+
+def plain_functions(n: int) -> float:
+    """The same as five function calls (one per component)."""
+    mimo = _mimo
+    r1 = r3 = g2 = z = 0.0
+    for _ in range(n):
+        h1 = mimo(r3, r1, z, z)
+        f1 = mimo(h1, z, z, z)
+        r1 = mimo(h1, z, z, z)
+        r2 = mimo(f1, h1, r1, g2)
+        r3 = mimo(f1, r2, z, z)
+    return r3
+
+
+class _NoSleepClock:
+    """The system clock without the sleep: the executor runs iterations back to back."""
+
+    simulated = False
+
+    def __init__(self) -> None:
+        self.now_ns = time.monotonic_ns
+
+    def sleep_until_ns(self, deadline_ns: int) -> None:
+        pass
+
+
+def _fig1_runner() -> Any:
+    """Fig. 1 in a Runner through the public API, wired as paper_evaluation.launch."""
+    import rtcf
+
+    runner = rtcf.Runner(
+        rtcf.RunnerSettings(frequency=FREQUENCY), clock=_NoSleepClock(), log_level="warning"
+    )
+    for node in c.fig1_nodes():
+        params = dict(node.params)
+        is_first = params.pop("is_first", "False").strip().lower() in ("true", "1")
+        runner.load(
+            rtcf.ComponentSpec(
+                node.name,
+                module=node.module,
+                class_name=node.cls,
+                remaps=node.remaps,
+                is_first=is_first,
+            )
+        )
+    return runner
+
+
+def best_ns_per_iteration(fn: Callable[[int], object], n: int, repeats: int) -> float:
+    """timeit's convention: the best of ``repeats`` runs is the least disturbed one."""
+    best = float("inf")
+    for _ in range(repeats):
+        t0 = time.perf_counter_ns()
+        fn(n)
+        best = min(best, (time.perf_counter_ns() - t0) / n)
+    return best
+
+
+def tight_loops(quick: bool) -> dict[str, Any]:
+    """ns per iteration at each layer, pinned to the loop's CPU at SCHED_FIFO."""
+    n_plain, n_rtcf, repeats = (20_000, 5_000, 3) if quick else (400_000, 100_000, 7)
+    runner = _fig1_runner()
+    updates = [runner.components[name].update for name in runner.schedule]
+
+    def components_only(n: int) -> None:
+        for _ in range(n):
+            for u in updates:
+                u()
+
+    def executor(n: int) -> None:
+        runner.run(n)
+
+    def executor_no_drain(n: int) -> None:
+        runner.run(n, drain_logs_every_iteration=False)
+
+    affinity = os.sched_getaffinity(0)
+    policy = os.sched_getscheduler(0)
+    param = os.sched_getparam(0)
+    try:
+        os.sched_setaffinity(0, {c.RT_CPU})
+        try:
+            os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(c.PRIORITY))
+            sched = f"SCHED_FIFO {c.PRIORITY}"
+        except PermissionError:
+            sched = "SCHED_OTHER"
+        runner.run(1000)  # start hooks, compile, warm up
+        out = {
+            "conditions": f"{sched}, CPU {c.RT_CPU}, best of {repeats}",
+            "plain inline sums": best_ns_per_iteration(plain_inline, n_plain, repeats),
+            "plain inline sums + 2 clock reads": best_ns_per_iteration(
+                plain_inline_timed, n_plain, repeats
+            ),
+            "plain, five function calls": best_ns_per_iteration(plain_functions, n_plain, repeats),
+            "rtcf: the five Mimo.update calls only": best_ns_per_iteration(
+                components_only, n_rtcf, repeats
+            ),
+            "rtcf: Executor (Runner.run, no sleep, no log drain)": best_ns_per_iteration(
+                executor_no_drain, n_rtcf, repeats
+            ),
+            "rtcf: Executor (Runner.run, no sleep), as the CLI runs it": best_ns_per_iteration(
+                executor, n_rtcf, repeats
+            ),
+        }
+        out["rtcf recorded calc p50 [µs] (no sleep)"] = runner.run(n_rtcf).timing.calc_us["p50"]
+    finally:
+        os.sched_setscheduler(0, policy, param)
+        os.sched_setaffinity(0, affinity)
+        runner.shutdown()
+    return out
+
+
+def main() -> int:
+    args = c.parser(__doc__.splitlines()[0], 30).parse_args()
+    duration = args.duration or (2.0 if args.quick else 30.0)
+    machine = c.machine_info()
+    started = time.perf_counter()
+    with c.workdir() as work:
+        launch = work / "fig1.launch"
+        launch.write_text(c.launch_xml(c.fig1_nodes(), frequency=FREQUENCY))
+        wrapper = c.rt_wrapper(not args.no_rt_wrapper, work)
+        print(f"rtcf then the plain loop, {duration:g} s each ...", file=sys.stderr)
+        load_before = c.load_avg()
+        run = c.run_rtcf(launch, duration, work / "report", wrapper=wrapper)
+        plain = run_plain(duration)
+        load_after = c.load_avg()
+    print("tight loops ...", file=sys.stderr)
+    tight = tight_loops(args.quick)
+    elapsed = time.perf_counter() - started
+
+    rt = run.timing
+    keys = ("p50", "p99", "p999", "max")
+    labels = ("p50", "p99", "p99.9", "max")
+    rows = []
+    for series, key in (("calculation", "calc_us"), ("wake-up jitter", "jitter_us")):
+        ratios = [c.ratio(rt[key].get(k), plain[key].get(k)) for k in keys]
+        rows.append([series, "rtcf (Fig. 1, 5 components)", *c.stat_cells(rt[key], keys)])
+        rows.append([series, "plain Python loop", *c.stat_cells(plain[key], keys)])
+        rows.append([series, "ratio rtcf / plain", *(c.fmt_ratio(x) for x in ratios)])
+    rt_table = c.table(["series", "[µs]", *labels], rows)
+    micro_rows = [
+        [k, c.fmt(v, 0) if "[µs]" not in k else c.fmt(v, 2)]
+        for k, v in tight.items()
+        if k != "conditions"
+    ]
+    micro_table = c.table(["in-process, no sleeping", "ns per iteration"], micro_rows)
+    print(f"machine: {c.machine_line(machine)}")
+    print(f"Fig. 1 at {FREQUENCY:g} Hz, {duration:g} s each, idle; target ≤ {TARGET_RATIO}x")
+    print(rt_table)
+    print()
+    print(f"tight loops: {tight['conditions']}")
+    print(micro_table)
+    print(f"total {elapsed:.0f} s")
+    data = {
+        "benchmark": NAME,
+        "timestamp": c.now_iso(),
+        "duration_s_per_run": duration,
+        "frequency_hz": FREQUENCY,
+        "machine": machine,
+        "load_avg_before": load_before,
+        "load_avg_after": load_after,
+        "rtcf": {
+            "timing": rt,
+            "realtime": c.rt_conditions(run),
+            "command": " ".join(run.command),
+        },
+        "plain": plain,
+        "tight_loops_ns_per_iteration": tight,
+        "elapsed_s": elapsed,
+    }
+    path = c.write_results(NAME, data, args.quick)
+    print(f"wrote {path.relative_to(c.REPO)}")
+    if not args.quick:
+        rtc = data["rtcf"]["realtime"]
+        how = (
+            f"rtcf reported scheduler {rtc.get('scheduler')}, mlockall {rtc.get('mlockall')}"
+            + (f", run under `{rtc['wrapper']}`" if rtc.get("wrapper") else "")
+            + f"; the plain loop: {plain['realtime']['scheduler']} {plain['realtime']['priority']}"
+            f", mlockall {plain['realtime']['mlockall']}, CPUs {plain['realtime']['cpu_affinity']}"
+        )
+        body = "\n".join(
+            [
+                f"Fig. 1 at {FREQUENCY:g} Hz, idle, **{duration:g} s** per run, rtcf then "
+                f"`benchmarks/_plain_loop.py` (the same sums inline, `clock_nanosleep` "
+                f"TIMER_ABSTIME, `time.monotonic_ns` around the work). {how}. "
+                f"Target: ratio ≤ {TARGET_RATIO}x.",
+                "",
+                rt_table,
+                "",
+                f"The same work in tight loops in one process, no sleeping "
+                f"({tight['conditions']}):",
+                "",
+                micro_table,
+                "",
+                f"Machine: {c.machine_line(machine)}. Measured {data['timestamp']} "
+                f"(`benchmarks/results/{NAME}.json`).",
+            ]
+        )
+        c.update_doc_section(NAME, body)
+        print(f"updated {c.DOC.relative_to(c.REPO)} (section {NAME})")
+    return 0
+
+
+if __name__ == "__main__":
+    c.main_guard(main)

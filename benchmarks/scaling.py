@@ -1,0 +1,176 @@
+"""How the loop's cost grows with the number of components: 10, 100 and 1000 in a chain.
+
+The chain is one ``rtcf_examples Sine`` (a source that writes every iteration) feeding
+N-1 ``rtcf_examples Identity`` components (in_port -> out_port, copied when new), so
+every component reads and writes a port in every iteration. Each size runs at a rate
+it can sustain, at SCHED_FIFO 80 on the loop's CPU. Per-component cost is the
+iteration's p50 divided by N; launch time is the wall time from spawning ``rtcf`` until
+it says the loop starts (parsing, importing, loading, wiring, compiling).
+
+    .venv/bin/python benchmarks/scaling.py [--duration S] [--quick]
+"""
+
+from __future__ import annotations
+
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import Any
+
+sys.path.insert(0, str(Path(__file__).resolve().parent))
+
+import _common as c
+
+NAME = "scaling"
+SIZES = ((10, 1000.0), (100, 1000.0), (1000, 200.0))
+
+
+def chain(n: int) -> list[c.Node]:
+    """Sine -> Identity -> ... -> Identity, n components, topics /t0 ... /t(n-1)."""
+    nodes = [c.Node("c0000", "rtcf_examples", "Sine", remaps=[("out", "/t0")])]
+    nodes.extend(
+        c.Node(
+            f"c{k:04d}",
+            "rtcf_examples",
+            "Identity",
+            remaps=[("in_port", f"/t{k - 1}"), ("out_port", f"/t{k}")],
+        )
+        for k in range(1, n)
+    )
+    return nodes
+
+
+def interpreter_start_s() -> float:
+    """Wall time of ``python -m rtcf --version``: the part of launch time that is not rtcf's."""
+    best = float("inf")
+    for _ in range(3):
+        t0 = time.perf_counter()
+        subprocess.run([sys.executable, "-m", "rtcf", "--version"], check=True, capture_output=True)
+        best = min(best, time.perf_counter() - t0)
+    return best
+
+
+def main() -> int:
+    args = c.parser(__doc__.splitlines()[0], 10).parse_args()
+    duration = args.duration or (1.0 if args.quick else 10.0)
+    machine = c.machine_info()
+    started = time.perf_counter()
+    results: list[dict[str, Any]] = []
+    with c.workdir() as work:
+        wrapper = c.rt_wrapper(not args.no_rt_wrapper, work)
+        baseline = interpreter_start_s()
+        for n, frequency in SIZES:
+            launch = work / f"chain{n}.launch"
+            launch.write_text(c.launch_xml(chain(n), frequency=frequency))
+            print(f"{n} components at {frequency:g} Hz, {duration:g} s ...", file=sys.stderr)
+            run = c.run_rtcf(launch, duration, work / f"report{n}", wrapper=wrapper)
+            t = run.timing
+            comps = t.get("components", {})
+            identity_p50 = [
+                v["calc_us"]["p50"] for k, v in comps.items() if k != "/c0000" and v.get("calc_us")
+            ]
+            results.append(
+                {
+                    "components": n,
+                    "frequency_hz": frequency,
+                    "iterations": t["iterations"],
+                    "overruns": t["overruns"],
+                    "calc_us": t["calc_us"],
+                    "jitter_us": t["jitter_us"],
+                    "per_component_us": t["calc_us"]["p50"] / n,
+                    "identity_component_p50_us_median": (
+                        statistics.median(identity_p50) if identity_p50 else None
+                    ),
+                    "setup_s": run.setup_s,
+                    "setup_source": run.setup_source,
+                    "total_wall_s": run.total_wall_s,
+                    "loop_wall_s": t.get("wall_time_s"),
+                    "realtime": c.rt_conditions(run),
+                }
+            )
+    elapsed = time.perf_counter() - started
+
+    rows = []
+    for r in results:
+        cu = r["calc_us"]
+        rows.append(
+            [
+                str(r["components"]),
+                f"{r['frequency_hz']:g}",
+                c.fmt(cu["p50"]),
+                c.fmt(cu["p999"]),
+                c.fmt(cu["max"]),
+                c.fmt(r["per_component_us"], 2),
+                c.fmt(r["identity_component_p50_us_median"], 2),
+                str(r["overruns"]),
+                c.fmt(r["jitter_us"]["p999"]),
+                c.fmt(r["setup_s"], 2),
+            ]
+        )
+    headers = [
+        "components",
+        "Hz",
+        "calc p50 [µs]",
+        "calc p99.9",
+        "calc max",
+        "p50 / N [µs]",
+        "one Identity p50 [µs]",
+        "overruns",
+        "jitter p99.9 [µs]",
+        "launch [s]",
+    ]
+    tab = c.table(headers, rows)
+    first, last = results[0], results[-1]
+    growth = (last["calc_us"]["p50"] / first["calc_us"]["p50"]) / (
+        last["components"] / first["components"]
+    )
+    summary = (
+        f"calc p50 grows {last['calc_us']['p50'] / first['calc_us']['p50']:.0f}x for "
+        f"{last['components'] // first['components']}x the components "
+        f"({growth:.2f} of linear); `python -m rtcf --version` alone takes {baseline:.2f} s"
+    )
+    print(f"machine: {c.machine_line(machine)}")
+    print(tab)
+    print(summary)
+    print(f"total {elapsed:.0f} s")
+    data = {
+        "benchmark": NAME,
+        "timestamp": c.now_iso(),
+        "duration_s_per_run": duration,
+        "machine": machine,
+        "load_avg_after": c.load_avg(),
+        "interpreter_start_s": baseline,
+        "sizes": results,
+        "elapsed_s": elapsed,
+    }
+    path = c.write_results(NAME, data, args.quick)
+    print(f"wrote {path.relative_to(c.REPO)}")
+    if not args.quick:
+        rt = results[0]["realtime"]
+        how = f"rtcf reported scheduler {rt.get('scheduler')}" + (
+            f", run under `{rt['wrapper']}`" if rt.get("wrapper") else ""
+        )
+        body = "\n".join(
+            [
+                f"A chain of one `Sine` and N-1 `Identity` components (every one reads and "
+                f"writes a port each iteration), **{duration:g} s** per size, idle; {how}. "
+                "Launch: wall time from spawning `rtcf launch` until it prints that the loop "
+                "starts (interpreter start, parsing, imports, loading, wiring).",
+                "",
+                tab,
+                "",
+                summary + ".",
+                "",
+                f"Machine: {c.machine_line(machine)}. Measured {data['timestamp']} "
+                f"(`benchmarks/results/{NAME}.json`).",
+            ]
+        )
+        c.update_doc_section(NAME, body)
+        print(f"updated {c.DOC.relative_to(c.REPO)} (section {NAME})")
+    return 0
+
+
+if __name__ == "__main__":
+    c.main_guard(main)

@@ -1,0 +1,367 @@
+"""The supervisor's handle on a worker process: everything that is not real-time.
+
+:class:`WorkerRunner` starts ``python -m rtcf._worker``, sends it commands over a
+Unix socket between runs, and while the loop runs it drains the shared-memory
+rings (log records to Python logging, timing rows into histograms) and reports
+progress. It owns every shared-memory segment: each is created here with mode
+0600 and an unguessable name, and its name is removed as soon as the worker has
+mapped it, so nothing is left in /dev/shm whatever way either process ends
+(SIGKILL included). A worker that dies is noticed within a polling interval and
+reported as an error.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from multiprocessing.connection import Connection
+from typing import Any
+
+from ._channels import Ring, Segment
+from ._errors import RtcfError
+from ._executor import STOP
+from ._log import LOG_RECORD_SIZE, LogRecord, PythonLoggingSink, drain_channel
+from ._params import ParameterStore
+from ._runner import ComponentSpec, RunResult
+from ._settings import RunnerSettings
+from ._timing import TimingAggregate, TimingSummary, ring_capacity, row_size
+from ._worker import CTL_STOP, CTL_WORDS, error_from_dict
+
+POLL_S = 0.01  # how often the supervisor drains while it waits for the worker
+STATUS_EVERY_S = 0.5
+
+
+class WorkerDied(RtcfError):
+    """The worker process ended without being asked to."""
+
+
+@dataclass
+class LiveStatus:
+    """What the status line shows while the loop runs."""
+
+    iterations: int
+    overruns: int
+    jitter_p999_us: float
+    calc_p999_us: float
+    calc_max_us: float
+    log_records_dropped: int
+    elapsed_s: float
+
+
+class WorkerRunner:
+    """A runner whose loop runs in a worker process; the same verbs as :class:`Runner`."""
+
+    def __init__(
+        self,
+        settings: RunnerSettings,
+        *,
+        name: str = "rt_runner",
+        parameters: ParameterStore | None = None,
+        simulated: bool = False,
+        log_level: str = "info",
+        log_sink: Callable[[LogRecord], None] | None = None,
+        log_capacity: int = 4096,
+        on_status: Callable[[LiveStatus], None] | None = None,
+        on_started: Callable[[dict[str, Any]], None] | None = None,
+    ) -> None:
+        self.settings = settings
+        self.name = name
+        self.parameters = parameters if parameters is not None else ParameterStore()
+        self.simulated = simulated
+        self.log_level = log_level
+        self.log_sink = log_sink or PythonLoggingSink()
+        self.log_capacity = log_capacity
+        self.on_status = on_status
+        self.on_started = on_started
+        self.process: subprocess.Popen[bytes] | None = None
+        self.conn: Connection | None = None
+        self._segments: list[Segment] = []
+        self._control: Segment | None = None
+        self._ctl: memoryview | None = None
+        self._log_ring: Ring | None = None
+        self._timing: tuple[Ring, list[str], TimingAggregate] | None = None
+        self._events: dict[str, Any] = {}
+        self.exit_reported = False
+
+    # -- process ---------------------------------------------------------------
+    def start(self) -> WorkerRunner:
+        control = self._segment(8 * CTL_WORDS)
+        self._control = control
+        self._ctl = control.buf.cast("q")
+        log = self._segment(Ring.nbytes(self.log_capacity, LOG_RECORD_SIZE))
+        self._log_ring = Ring.create(log.buf, self.log_capacity, LOG_RECORD_SIZE)
+        ours, theirs = socket.socketpair(socket.AF_UNIX, socket.SOCK_STREAM)
+        try:
+            self.process = subprocess.Popen(
+                [sys.executable, "-m", "rtcf._worker", str(theirs.fileno()), str(os.getpid())],
+                pass_fds=(theirs.fileno(),),
+                stdin=subprocess.DEVNULL,
+                env=_worker_env(),
+            )
+        finally:
+            theirs.close()
+        self.conn = Connection(ours.detach())
+        self.call(
+            "hello",
+            list(sys.path),
+            control.name,
+            log.name,
+            self.settings,
+            self.parameters.as_dict(),
+            self.name,
+            self.simulated,
+            self.log_level,
+        )
+        control.unlink()  # mapped by both: the names are no longer needed
+        log.unlink()
+        return self
+
+    def _segment(self, size: int) -> Segment:
+        seg = Segment.create(size)
+        self._segments.append(seg)
+        return seg
+
+    @property
+    def pid(self) -> int | None:
+        return self.process.pid if self.process else None
+
+    def __enter__(self) -> WorkerRunner:
+        return self.start() if self.process is None else self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    # -- the control channel -----------------------------------------------------
+    def call(self, command: str, *args: Any) -> Any:
+        """Send a command and wait for its answer, draining the rings meanwhile."""
+        conn = self._conn()
+        try:
+            conn.send((command, args))
+        except (BrokenPipeError, ConnectionResetError, OSError):
+            raise self._died(f"while sending {command!r}") from None
+        last_status = time.monotonic()
+        while True:
+            try:
+                ready = conn.poll(POLL_S)
+            except (EOFError, OSError):
+                ready = True
+            self.pump()
+            if self.on_status is not None and self._timing is not None:
+                now = time.monotonic()
+                if now - last_status >= STATUS_EVERY_S:
+                    last_status = now
+                    self.on_status(self.live_status())
+            if not ready:
+                if self.process is not None and self.process.poll() is not None:
+                    raise self._died(f"during {command!r}")
+                continue
+            try:
+                message = conn.recv()
+            except (EOFError, OSError):
+                raise self._died(f"during {command!r}") from None
+            kind = message[0]
+            if kind == "event":
+                self._events[message[1]] = message[2]
+                if message[1] == "started":
+                    self._on_started()
+                continue
+            self.pump()
+            if kind == "error":
+                raise error_from_dict(message[1])
+            return message[1]
+
+    def _conn(self) -> Connection:
+        if self.conn is None:
+            raise RtcfError("the worker process is not running; call start() first")
+        return self.conn
+
+    def _died(self, when: str) -> WorkerDied:
+        proc = self.process
+        code = None
+        if proc is not None:
+            try:
+                code = proc.wait(timeout=2.0)
+            except subprocess.TimeoutExpired:
+                code = None
+        if code is not None and code < 0:
+            how = f"was killed by {signal.Signals(-code).name}"
+        elif code is not None:
+            how = f"exited with status {code}"
+        else:
+            how = "stopped answering"
+        self.pump()
+        where = ""
+        if self._timing is not None:
+            where = f" after iteration {self._timing[2].last_iteration}"
+        self.exit_reported = True
+        return WorkerDied(
+            f"runner {self.name!r}: the worker process (pid {self.pid}) {how} {when}{where}; "
+            "the components' stop() and cleanup() did not run"
+        )
+
+    # -- draining ------------------------------------------------------------------
+    def pump(self) -> None:
+        """Drain log records and timing rows (non-real-time work, called often)."""
+        if self._log_ring is not None:
+            drain_channel(self._log_ring, self.log_sink)
+        if self._timing is not None:
+            ring, names, aggregate = self._timing
+            aggregate.consume(ring, names)
+
+    @property
+    def log_records_dropped(self) -> int:
+        return self._log_ring.dropped if self._log_ring is not None else 0
+
+    def live_status(self) -> LiveStatus:
+        aggregate = self._timing[2] if self._timing else TimingAggregate()
+        started = self._events.get("started_at", time.monotonic())
+        return LiveStatus(
+            iterations=aggregate.rows,
+            overruns=aggregate.overruns,
+            jitter_p999_us=aggregate.jitter.quantile(0.999) / 1e3,
+            calc_p999_us=aggregate.calc.quantile(0.999) / 1e3,
+            calc_max_us=aggregate.calc.quantile(1.0) / 1e3,
+            log_records_dropped=self.log_records_dropped,
+            elapsed_s=time.monotonic() - started,
+        )
+
+    # -- the runner's verbs ------------------------------------------------------
+    def load(self, spec: ComponentSpec) -> str:
+        if spec.cls is not None and not spec.module:
+            # the worker imports the class by name, as an rt_launcher would ask for it
+            spec.module, spec.class_name = spec.cls.__module__, spec.cls.__qualname__
+        spec.cls = None
+        return str(self.call("load", spec))
+
+    def unload(self, name: str) -> None:
+        self.call("unload", name)
+
+    def activate(self) -> None:
+        self.call("activate")
+
+    def deactivate(self) -> None:
+        self.call("deactivate")
+
+    def describe(self) -> dict[str, Any]:
+        return dict(self.call("describe"))
+
+    def request_stop(self) -> None:
+        """End the loop after the current iteration (safe from a signal handler)."""
+        if self._ctl is not None:
+            self._ctl[CTL_STOP] = STOP
+
+    def clear_stop(self) -> None:
+        """Forget a stop request (the next run runs); a stop asked for earlier sticks."""
+        if self._ctl is not None:
+            self._ctl[CTL_STOP] = 0
+
+    @property
+    def stop_requested(self) -> bool:
+        return self._ctl is not None and self._ctl[CTL_STOP] != 0
+
+    def run(self, iterations: int | None = None, *, trace: str | None = None) -> RunResult:
+        """Run the loop in the worker until ``iterations`` ran or :meth:`request_stop`."""
+        schedule: list[str] = self.call("prepare")
+        capacity = ring_capacity(len(schedule))
+        seg = self._segment(Ring.nbytes(capacity, row_size(len(schedule))))
+        ring = Ring.create(seg.buf, capacity, row_size(len(schedule)))
+        aggregate = TimingAggregate()
+        self._timing = (ring, schedule, aggregate)
+        self._events.pop("started", None)
+        try:
+            done = self.call("run", iterations, seg.name, trace)
+        finally:
+            seg.unlink()
+            self._timing = None
+            aggregate.finish(ring, schedule)
+            ring.close()
+            self._close_segment(seg)
+        timing = aggregate.summary(done["rows"], done["overruns"])
+        return RunResult(
+            iterations=done["iterations"],
+            stopped_by=done["stopped_by"],
+            timing=timing if not done["simulated"] else _counts_only(timing),
+            order=done["order"],
+            log_records_dropped=self.log_records_dropped,
+            simulated=done["simulated"],
+            realtime=done["realtime"],
+            aggregate=aggregate,
+        )
+
+    def _on_started(self) -> None:
+        self._events["started_at"] = time.monotonic()
+        for seg in self._segments:  # the worker has mapped the timing ring by now
+            seg.unlink()
+        realtime = self._events["started"]
+        if self.settings.cpu_affinity_mask:
+            _keep_off_cpus(realtime.get("cpu_affinity") or [])
+        if self.on_started is not None:
+            self.on_started(realtime)
+
+    def shutdown(self) -> list[RtcfError]:
+        """Stop and clean up every component in the worker, then let it exit."""
+        if self.conn is None or self.process is None or self.process.poll() is not None:
+            return []
+        errors = [error_from_dict(d) for d in self.call("shutdown")]
+        try:
+            self.process.wait(timeout=10.0)
+        except subprocess.TimeoutExpired:
+            pass
+        return errors
+
+    def close(self) -> None:
+        """Make sure the worker is gone and every segment is unmapped and removed."""
+        proc = self.process
+        if proc is not None and proc.poll() is None:
+            proc.terminate()  # the worker's SIGTERM handler ends the loop gracefully
+            try:
+                proc.wait(timeout=5.0)
+            except subprocess.TimeoutExpired:
+                proc.kill()
+                proc.wait()
+        if self.conn is not None:
+            self.conn.close()
+            self.conn = None
+        if self._ctl is not None:
+            self._ctl.release()
+            self._ctl = None
+        if self._log_ring is not None:
+            self._log_ring.close()
+            self._log_ring = None
+        for seg in list(self._segments):
+            self._close_segment(seg)
+
+    def _close_segment(self, seg: Segment) -> None:
+        seg.unlink()
+        seg.close()
+        self._segments.remove(seg)
+
+
+def _counts_only(timing: TimingSummary) -> TimingSummary:
+    """On a simulated clock, the measured times mean nothing: keep only the counts."""
+    return TimingSummary(iterations=timing.iterations, samples=0, overruns=timing.overruns)
+
+
+def _worker_env() -> dict[str, str]:
+    env = dict(os.environ)
+    # the worker must find this very rtcf even when it is not installed
+    src = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    env["PYTHONPATH"] = os.pathsep.join(p for p in (src, env.get("PYTHONPATH", "")) if p)
+    return env
+
+
+def _keep_off_cpus(worker_cpus: list[int]) -> None:
+    """Move the supervisor off the worker's CPUs when that leaves it somewhere to run."""
+    try:
+        mine = os.sched_getaffinity(0)
+        rest = mine - set(worker_cpus)
+        if worker_cpus and rest and rest != mine:
+            os.sched_setaffinity(0, rest)
+    except OSError:
+        pass

@@ -1,0 +1,293 @@
+"""The worker process: holds the components and runs the loop, nothing else.
+
+Started by the supervisor as ``python -m rtcf._worker FD SUPERVISOR_PID``. It
+imports, constructs and configures the components, applies the real-time settings
+and runs the loop. It imports no middleware, starts no thread and does no
+blocking I/O while the loop runs. Everything it tells the supervisor while running
+goes through shared memory (log records, timing rows); the control connection (a
+Unix socket, pickled messages) is used only between runs: load, unload, run, stop.
+
+Messages from the supervisor are ``(command, args)``; the worker answers each with
+``("reply", value)`` or ``("error", details)``, and may send ``("event", name,
+value)`` before the answer (``started`` when the loop begins).
+"""
+
+from __future__ import annotations
+
+import ctypes
+import ctypes.util
+import os
+import signal
+import sys
+import traceback
+from collections.abc import Callable
+from multiprocessing.connection import Connection
+from types import FrameType
+from typing import Any
+
+from ._channels import Ring, Segment
+from ._clock import MonotonicClock, SimClock
+from ._errors import ComponentError, ConfigurationError, GraphError, LaunchError, RtcfError
+from ._executor import STOP, StopFlag
+from ._log import LogWriter
+from ._params import ParameterStore
+from ._realtime import FrozenGC, RealtimeReport, apply_realtime
+from ._runner import ComponentSpec, Runner
+from ._settings import RunnerSettings
+from ._trace import Trace
+
+# words of the control segment (int64 each)
+CTL_STOP = 0  # non-zero: the loop ends after the current iteration (the supervisor writes it)
+CTL_ITERATION = 1  # the last iteration the worker finished a run at (informative)
+CTL_WORDS = 8
+
+_ERRORS: dict[str, type[RtcfError]] = {
+    cls.__name__: cls
+    for cls in (RtcfError, ComponentError, ConfigurationError, GraphError, LaunchError)
+}
+
+
+def error_to_dict(exc: BaseException) -> dict[str, Any]:
+    """What the supervisor needs to rebuild the error (exceptions may not pickle)."""
+    out: dict[str, Any] = {
+        "type": type(exc).__name__,
+        "message": str(exc),
+        "traceback": "".join(traceback.format_exception(exc)),
+    }
+    if isinstance(exc, RtcfError):
+        out.update(message=exc.message, file=exc.file, line=exc.line)
+        out["component"] = getattr(exc, "component", None)
+    return out
+
+
+def error_from_dict(d: dict[str, Any]) -> RtcfError:
+    cls = _ERRORS.get(d["type"])
+    if cls is None:  # not one of ours: a bug in the worker itself
+        return RtcfError(f"the worker failed: {d['type']}: {d['message']}")
+    if cls is ComponentError:
+        err: RtcfError = ComponentError(
+            d["message"], component=d.get("component"), file=d.get("file"), line=d.get("line")
+        )
+    else:
+        err = cls(d["message"], file=d.get("file"), line=d.get("line"))
+    err.worker_traceback = d.get("traceback", "")  # type: ignore[attr-defined]
+    return err
+
+
+class Worker:
+    def __init__(self, conn: Connection) -> None:
+        self.conn = conn
+        self.runner: Runner | None = None
+        self.segments: list[Segment] = []
+        self.log_writer: LogWriter | None = None
+        self.stop: StopFlag | None = None
+        self.settings = RunnerSettings()
+        self.simulated = False
+        self.realtime: RealtimeReport | None = None
+        self.done = False
+
+    # -- the command loop ------------------------------------------------------
+    def serve(self) -> int:
+        handlers: dict[str, Callable[..., Any]] = {
+            "hello": self.hello,
+            "load": self.load,
+            "unload": self.unload,
+            "activate": self.activate,
+            "deactivate": self.deactivate,
+            "describe": self.describe,
+            "prepare": self.prepare,
+            "run": self.run,
+            "shutdown": self.shutdown,
+        }
+        while not self.done:
+            try:
+                command, args = self.conn.recv()
+            except (EOFError, OSError):  # the supervisor is gone: clean up and leave
+                self.shutdown()
+                return 3
+            handler = handlers.get(command)
+            try:
+                if handler is None:
+                    raise RtcfError(f"the worker does not know the command {command!r}")
+                value = handler(*args)
+            except BaseException as exc:  # every failure goes back; the worker lives on
+                self._send("error", error_to_dict(exc))
+                if not isinstance(exc, Exception):
+                    raise
+            else:
+                self._send("reply", value)
+        return 0
+
+    def _send(self, kind: str, *payload: Any) -> None:
+        try:
+            self.conn.send((kind, *payload))
+        except (BrokenPipeError, ConnectionResetError):
+            pass
+
+    def _runner(self) -> Runner:
+        if self.runner is None:
+            raise RtcfError("the worker has not been set up (no hello)")
+        return self.runner
+
+    # -- commands ----------------------------------------------------------------
+    def hello(
+        self,
+        sys_path: list[str],
+        control: str,
+        log: str,
+        settings: RunnerSettings,
+        parameters: dict[str, Any],
+        name: str,
+        simulated: bool,
+        log_level: str,
+    ) -> dict[str, Any]:
+        # import components from exactly where the supervisor would
+        sys.path[:] = [p for p in sys_path]
+        control_seg = self._attach(control)
+        log_seg = self._attach(log)
+        self.stop = StopFlag(control_seg.buf.cast("q")[CTL_STOP : CTL_STOP + 1])
+        self.log_writer = writer = LogWriter(Ring.open(log_seg.buf))
+        self.settings = settings
+        self.simulated = simulated
+        store = ParameterStore()
+        for key, value in parameters.items():
+            store.set(key, value)
+
+        def emit(level: int, logger: str, text: str, iteration: int, time_ns: int) -> None:
+            writer.push_waiting(level, logger, text, iteration, time_ns, timeout_s=5.0)
+
+        self.runner = Runner(
+            settings,
+            clock=SimClock() if simulated else MonotonicClock(),
+            parameters=store,
+            name=name,
+            log_level=log_level,
+            log_ring=writer,
+            log_emit=emit,
+            stop_flag=self.stop,
+        )
+        return {"pid": os.getpid(), "python": sys.version.split()[0]}
+
+    def _attach(self, name: str) -> Segment:
+        seg = Segment.attach(name)
+        self.segments.append(seg)
+        return seg
+
+    def load(self, spec: ComponentSpec) -> str:
+        self._runner().load(spec)
+        return spec.full_name
+
+    def unload(self, name: str) -> None:
+        self._runner().unload(name)
+
+    def activate(self) -> None:
+        self._runner().activate()
+
+    def deactivate(self) -> None:
+        self._runner().deactivate()
+
+    def describe(self) -> dict[str, Any]:
+        runner = self._runner()
+        graph = runner.graph
+        return {
+            "components": list(runner.components),
+            "order": list(graph.order),
+            "warnings": list(graph.warnings),
+            "not_ready": runner.not_ready_reason(),
+            "edges": len(graph.edges),
+        }
+
+    def prepare(self) -> list[str]:
+        """Compile the schedule; the supervisor sizes the timing ring for it."""
+        return self._runner().schedule
+
+    def run(self, iterations: int | None, timing: str, trace_path: str | None) -> dict[str, Any]:
+        runner = self._runner()
+        seg = Segment.attach(timing)
+        ring = Ring.open(seg.buf)
+        trace = Trace(runner.components, runner.state) if trace_path else None
+        try:
+            if self.realtime is None:  # once per worker: scheduling, affinity, memory
+                self.realtime = apply_realtime(self.settings, simulated=self.simulated)
+            with FrozenGC(self.realtime):
+                self._send("event", "started", self.realtime.to_dict())
+                result = runner.run(
+                    iterations,
+                    timing_ring=ring,
+                    on_iteration=trace.sample if trace else None,
+                )
+            realtime = self.realtime.to_dict()
+        finally:
+            ring.close()
+            seg.close()
+        if trace is not None and trace_path:
+            trace.write(trace_path)
+        return {
+            "iterations": result.iterations,
+            "stopped_by": result.stopped_by,
+            "rows": result.timing.iterations,
+            "overruns": result.timing.overruns,
+            "order": result.order,
+            "simulated": result.simulated,
+            "realtime": realtime,
+            "last_iteration": runner.state.iteration,
+        }
+
+    def shutdown(self) -> list[dict[str, Any]]:
+        errors: list[dict[str, Any]] = []
+        if self.runner is not None:
+            errors = [error_to_dict(e) for e in self.runner.shutdown()]
+            self.runner = None
+        self.done = True
+        return errors
+
+    def close(self) -> None:
+        if self.log_writer is not None:
+            self.log_writer.release()
+        if self.stop is not None:
+            cell = self.stop.cell
+            if isinstance(cell, memoryview):
+                cell.release()
+        for seg in self.segments:
+            seg.close()
+
+
+PR_SET_PDEATHSIG = 1
+
+
+def _follow_parent(supervisor_pid: int) -> None:
+    """Get SIGTERM when the supervisor dies, so a lost worker never runs on alone."""
+    try:
+        libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6", use_errno=True)
+        libc.prctl(PR_SET_PDEATHSIG, signal.SIGTERM, 0, 0, 0)
+    except (OSError, AttributeError):
+        pass
+    if os.getppid() != supervisor_pid:  # it died before the prctl took effect
+        sys.exit(3)
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = sys.argv[1:] if argv is None else argv
+    if len(args) != 2:
+        print("usage: python -m rtcf._worker FD SUPERVISOR_PID (started by rtcf)", file=sys.stderr)
+        return 2
+    fd, supervisor = int(args[0]), int(args[1])
+    _follow_parent(supervisor)
+    worker = Worker(Connection(fd))
+
+    # Ctrl-C reaches the whole process group and a dying supervisor sends SIGTERM:
+    # either way, end the loop after the iteration and let the hooks run
+    def stop(signum: int, frame: FrameType | None) -> None:
+        if worker.stop is not None:
+            worker.stop.set(STOP)
+
+    signal.signal(signal.SIGINT, stop)
+    signal.signal(signal.SIGTERM, stop)
+    try:
+        return worker.serve()
+    finally:
+        worker.close()
+
+
+if __name__ == "__main__":
+    sys.exit(main())

@@ -1,0 +1,323 @@
+"""Shared-memory channels between real processes, at full speed on both sides.
+
+The child process runs ``sys.executable -c <code>``; the test process is the other
+side. Each test creates its segments itself and unlinks them in ``finally``.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+import textwrap
+import time
+from collections.abc import Iterator
+from contextlib import contextmanager
+from itertools import pairwise
+
+import pytest
+
+from rtcf._channels import Mailbox, Ring, Segment, leftover_segments
+
+from .conftest import SRC
+
+pytestmark = pytest.mark.integration
+
+N = 1_000_000
+DEADLINE_S = 60.0  # a hang fails the test instead of blocking the run
+
+# Words of the control line at the start of each test segment.
+DONE, STARTED, ELAPSED_NS = 0, 1, 2
+
+# f(seq) of the records; the same expression is in the producer's code.
+PATTERN = "(seq * 0x9E3779B1) ^ 0x5A5A5A5A"
+
+
+def pattern(seq: int) -> int:
+    return (seq * 0x9E3779B1) ^ 0x5A5A5A5A
+
+
+PREAMBLE = """
+import sys, time
+from rtcf._channels import Mailbox, Ring, Segment
+N = int(sys.argv[2])
+seg = Segment.attach(sys.argv[1])
+ctl = seg.buf[:64].cast("q")
+"""
+
+EPILOGUE = """
+ctl[ELAPSED_NS] = int((time.perf_counter() - t0) * 1e9)
+ctl[DONE] = 1  # after the last commit or write: the other side may stop once empty
+"""
+
+PRODUCE_RESERVE_COMMIT = f"""
+ring = Ring.open(seg.buf[64:])
+words = ring.data.cast("q")
+reserve, commit = ring.reserve, ring.commit
+ctl[STARTED] = 1
+t0 = time.perf_counter()
+for seq in range(N):
+    offset = reserve()
+    if offset < 0:
+        continue  # dropped: the ring counts it
+    i = offset >> 3
+    v = {PATTERN}
+    words[i + 1] = v
+    words[i + 2] = v
+    words[i + 3] = v
+    words[i + 4] = v
+    words[i] = seq
+    commit()
+{EPILOGUE}
+words.release()
+ring.close()
+"""
+
+PRODUCE_PUSH = f"""
+import struct
+ring = Ring.open(seg.buf[64:])
+pack, push = struct.Struct("5q").pack, ring.push
+ctl[STARTED] = 1
+t0 = time.perf_counter()
+for seq in range(N):
+    v = {PATTERN}
+    push(pack(seq, v, v, v, v))
+{EPILOGUE}
+ring.close()
+"""
+
+WRITE_MAILBOX = f"""
+box = Mailbox.open(seg.buf[64:])
+write = box.write
+ctl[STARTED] = 1
+t0 = time.perf_counter()
+for value in range(1, N + 1):
+    write(value.to_bytes(8, "little") * 32)
+{EPILOGUE}
+box.close()
+"""
+
+CLOSE = """
+ctl.release()
+seg.close()
+"""
+
+
+def child_env() -> dict[str, str]:
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join([str(SRC), env.get("PYTHONPATH", "")])
+    return env
+
+
+def start(code: str, *args: object) -> subprocess.Popen[str]:
+    consts = f"DONE, STARTED, ELAPSED_NS = {DONE}, {STARTED}, {ELAPSED_NS}\n"
+    return subprocess.Popen(
+        [sys.executable, "-c", consts + textwrap.dedent(code), *map(str, args)],
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=child_env(),
+    )
+
+
+def finish(proc: subprocess.Popen[str], stdin: str | None = None) -> str:
+    out, err = proc.communicate(stdin, timeout=DEADLINE_S)
+    assert proc.returncode == 0, f"child failed ({proc.returncode}):\n{err}"
+    assert err == "", err
+    return out
+
+
+@contextmanager
+def segment(size: int) -> Iterator[Segment]:
+    seg = Segment.create(size)
+    try:
+        yield seg
+    finally:
+        seg.unlink()
+        seg.close()
+    assert seg.name not in leftover_segments(os.getpid())
+
+
+@contextmanager
+def child(code: str, *args: object) -> Iterator[subprocess.Popen[str]]:
+    proc = start(code, *args)
+    try:
+        yield proc
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+        proc.communicate()
+    assert leftover_segments(proc.pid) == []
+
+
+def check_alive(proc: subprocess.Popen[str], t_end: float) -> None:
+    if proc.poll() is not None:
+        _, err = proc.communicate()
+        pytest.fail(f"child exited early ({proc.returncode}):\n{err}")
+    if time.monotonic() > t_end:
+        pytest.fail("timed out")
+
+
+def consume(
+    ring: Ring, ctl: memoryview, proc: subprocess.Popen[str]
+) -> tuple[list[int], list[tuple[int, ...]]]:
+    """Drain ``ring`` in place until the producer is done; (sequence numbers, torn)."""
+    received: list[int] = []
+    torn: list[tuple[int, ...]] = []
+    append = received.append
+    words = ring.data.cast("q")
+    width = ring.record_size // 8
+    pending, release = ring.pending, ring.release
+    t_end = time.monotonic() + DEADLINE_S
+    try:
+        while True:
+            slot, n = pending()
+            if n:
+                for i in range(slot * width, (slot + n) * width, width):
+                    seq = words[i]
+                    v = pattern(seq)
+                    if not (words[i + 1] == words[i + 2] == words[i + 3] == words[i + 4] == v):
+                        torn.append(tuple(words[i : i + 5]))
+                    append(seq)
+                release(n)
+            elif ctl[DONE]:
+                if not len(ring):  # read after DONE: every commit is visible
+                    return received, torn
+            else:
+                check_alive(proc, t_end)
+    finally:
+        words.release()
+
+
+@pytest.mark.parametrize(
+    ("capacity", "producer"),
+    [
+        pytest.param(1024, PRODUCE_RESERVE_COMMIT, id="small-ring-reserve-commit"),
+        pytest.param(1024, PRODUCE_PUSH, id="small-ring-push"),
+        pytest.param(2**20, PRODUCE_RESERVE_COMMIT, id="big-ring-reserve-commit"),
+        pytest.param(2**20, PRODUCE_PUSH, id="big-ring-push"),
+    ],
+)
+def test_ring_between_processes(capacity: int, producer: str) -> None:
+    with segment(64 + Ring.nbytes(capacity, 40)) as seg:
+        ctl = seg.buf[:64].cast("q")
+        ring = Ring.create(seg.buf[64:], capacity, 40)
+        try:
+            t0 = time.perf_counter()
+            with child(PREAMBLE + producer + CLOSE, seg.name, N) as proc:
+                received, torn = consume(ring, ctl, proc)
+                elapsed = time.perf_counter() - t0
+                finish(proc)
+            dropped = ring.dropped
+            produce_s = ctl[ELAPSED_NS] / 1e9
+        finally:
+            ring.close()
+            ctl.release()
+
+    print(
+        f"\nring {capacity}: producer {N / produce_s:,.0f} records/s; "
+        f"received {len(received):,} ({len(received) / elapsed:,.0f}/s end to end), "
+        f"dropped {dropped:,}"
+    )
+    assert torn == []
+    assert all(a < b for a, b in pairwise(received))
+    assert len(received) + dropped == N
+    if dropped:
+        gaps = received[0] + (N - 1 - received[-1])
+        gaps += sum(b - a - 1 for a, b in pairwise(received))
+        assert gaps == dropped
+    if capacity >= N:
+        assert dropped == 0
+        assert received == list(range(N))
+
+
+def test_mailbox_between_processes() -> None:
+    size = 256
+    final = (N).to_bytes(8, "little") * 32
+    with segment(64 + Mailbox.nbytes(size)) as seg:
+        ctl = seg.buf[:64].cast("q")
+        box = Mailbox.create(seg.buf[64:], size)
+        out = bytearray(size)
+        try_read_into = box.try_read_into
+        reads = changed = never = 0
+        torn: list[bytes] = []
+        backwards: list[tuple[int, int]] = []
+        last = 0
+        try:
+            with child(PREAMBLE + WRITE_MAILBOX + CLOSE, seg.name, N) as proc:
+                t_end = time.monotonic() + DEADLINE_S
+                while last != N:
+                    n = try_read_into(out)
+                    reads += 1
+                    if n == -2:
+                        changed += 1
+                        continue
+                    if n == -1:
+                        never += 1
+                        check_alive(proc, t_end)
+                        continue
+                    head = out[:8]
+                    if n != size or out != head * 32:
+                        torn.append(bytes(out))
+                    value = int.from_bytes(head, "little")
+                    if value < last:
+                        backwards.append((last, value))
+                    last = value
+                    if reads & 0xFFFF == 0:
+                        check_alive(proc, t_end)
+                finish(proc)
+            after = box.read()
+            version = box.version
+            write_s = ctl[ELAPSED_NS] / 1e9
+        finally:
+            box.close()
+            ctl.release()
+
+    print(
+        f"\nmailbox: writer {N / write_s:,.0f} writes/s; reader {reads:,} attempts, "
+        f"{changed:,} changed during the copy (-2), {never:,} before the first write"
+    )
+    assert torn == []
+    assert backwards == []
+    assert last == N
+    assert after == final
+    assert version == N
+
+
+SEGMENT_OWNER = """
+import sys
+from rtcf._channels import Segment
+seg = Segment.create(10000)
+seg.buf[:5] = b"hello"
+print(seg.name, seg.size, flush=True)
+sys.stdin.readline()
+reply = seg.buf[5:10].tobytes()
+seg.unlink()
+seg.close()
+print(reply.decode())
+"""
+
+
+def test_segment_created_by_one_process_attached_by_another() -> None:
+    with child(SEGMENT_OWNER) as proc:
+        name = ""
+        try:
+            assert proc.stdout is not None and proc.stdin is not None
+            name, size = proc.stdout.readline().split()
+            assert name in leftover_segments(proc.pid)
+            with Segment.attach(name) as seg:
+                assert seg.size == int(size) == 12288
+                assert seg.buf[:5] == b"hello"
+                seg.buf[5:10] = b"world"
+            assert finish(proc, "go\n") == "world\n"
+            assert name not in leftover_segments(proc.pid)
+            assert not os.path.exists(os.path.join("/dev/shm", name))
+            with pytest.raises(FileNotFoundError):
+                Segment.attach(name)
+        finally:
+            if name:  # the child failed half way: remove what it left
+                try:
+                    os.unlink(os.path.join("/dev/shm", name))
+                except FileNotFoundError:
+                    pass

@@ -1,0 +1,400 @@
+"""Shared-memory channels in one process: rings, mailboxes, segments."""
+
+from __future__ import annotations
+
+import os
+import re
+import stat
+import struct
+from collections.abc import Iterator
+
+import pytest
+
+from rtcf._channels import (
+    PREFIX,
+    SHM_DIR,
+    Mailbox,
+    Ring,
+    Segment,
+    leftover_segments,
+    shm_dir,
+)
+
+NAME = re.compile(r"rtcf-(\d+)-([0-9a-f]{32})")
+
+
+def _ring(capacity: int, record_size: int = 8) -> Ring:
+    return Ring.create(bytearray(Ring.nbytes(capacity, record_size)), capacity, record_size)
+
+
+def _rec(n: int) -> bytes:
+    return struct.pack("q", n)
+
+
+@pytest.fixture
+def segment() -> Iterator[Segment]:
+    seg = Segment.create(4096)
+    try:
+        yield seg
+    finally:
+        seg.unlink()
+        seg.close()
+
+
+# -- Ring --------------------------------------------------------------------
+
+
+def test_ring_push_pop_in_order() -> None:
+    ring = _ring(8)
+    assert ring.pop() is None and len(ring) == 0
+    for i in range(5):
+        assert ring.push(_rec(i))
+    assert len(ring) == 5 and ring.produced == 5
+    assert [ring.pop() for _ in range(5)] == [_rec(i) for i in range(5)]
+    assert ring.pop() is None
+    assert ring.dropped == 0
+
+
+def test_full_ring_drops_and_counts_every_refused_record() -> None:
+    ring = _ring(4)
+    assert [ring.push(_rec(i)) for i in range(7)] == [True] * 4 + [False] * 3
+    assert ring.dropped == 3 and ring.produced == 4 and len(ring) == 4
+    assert ring.reserve() == -1
+    assert ring.dropped == 4
+    assert ring.pop() == _rec(0)
+    assert ring.push(_rec(100))
+    assert not ring.push(_rec(101))
+    assert ring.dropped == 5
+    assert [ring.pop() for _ in range(4)] == [_rec(1), _rec(2), _rec(3), _rec(100)]
+
+
+def test_short_record_leaves_the_rest_of_the_slot_alone() -> None:
+    ring = _ring(1, 16)
+    assert ring.push(b"\xff" * 16)
+    assert ring.pop() == b"\xff" * 16
+    assert ring.push(b"ab")
+    assert ring.pop() == b"ab" + b"\xff" * 14
+    with pytest.raises(ValueError, match=r"17 bytes .* 16-byte records"):
+        ring.push(bytes(17))
+
+
+def test_push_accepts_any_contiguous_buffer() -> None:
+    ring = _ring(4, 16)
+    with memoryview(bytearray(struct.pack("2q", 7, 8))) as mv, mv.cast("q") as words:
+        assert ring.push(words)
+    assert ring.pop() == struct.pack("2q", 7, 8)
+
+
+def test_pending_and_release_across_the_wrap() -> None:
+    ring = _ring(8)
+    for i in range(6):
+        ring.push(_rec(i))
+    for _ in range(6):
+        ring.pop()
+    for i in range(6, 12):  # slots 6, 7, then 0..3
+        assert ring.push(_rec(i))
+    assert ring.pending() == (6, 2)
+    words = ring.data.cast("q")
+    try:
+        assert [words[6], words[7]] == [6, 7]
+        ring.release(2)
+        assert ring.pending() == (0, 4)
+        assert list(words[0:4]) == [8, 9, 10, 11]
+        with pytest.raises(ValueError, match="cannot release 5 records: 4 are waiting"):
+            ring.release(5)
+        ring.release(4)
+        slot, n = ring.pending()
+        assert (slot, n) == (4, 0)
+        assert len(ring) == 0
+    finally:
+        words.release()
+
+
+def test_reserve_commit_with_int64_words() -> None:
+    ring = _ring(4, 24)
+    assert ring.record_size == 24
+    words = ring.data.cast("q")
+    try:
+        for seq in range(3):
+            offset = ring.reserve()
+            assert offset == seq * 24
+            assert len(ring) == seq  # invisible until committed
+            i = offset // 8
+            words[i], words[i + 1], words[i + 2] = seq, -seq, seq * 1000
+            ring.commit()
+        assert len(ring) == 3
+        assert ring.pop() == struct.pack("3q", 0, 0, 0)
+        assert ring.pop() == struct.pack("3q", 1, -1, 1000)
+        out = bytearray(24)
+        assert ring.pop_into(out)
+        assert struct.unpack("3q", out) == (2, -2, 2000)
+        assert not ring.pop_into(out)
+        with pytest.raises(ValueError, match="8 bytes, records have 24"):
+            ring.pop_into(bytearray(8))
+    finally:
+        words.release()
+
+
+def test_commit_without_reserve_is_an_error() -> None:
+    ring = _ring(1)
+    with pytest.raises(RuntimeError, match="without a successful reserve"):
+        ring.commit()
+    assert ring.reserve() == 0
+    ring.commit()
+    assert ring.reserve() == -1
+    with pytest.raises(RuntimeError):
+        ring.commit()
+    assert ring.produced == 1 and ring.dropped == 1
+
+
+@pytest.mark.parametrize(
+    ("capacity", "record_size", "shape"),
+    [(1, 1, (1, 8)), (3, 8, (4, 8)), (1000, 33, (1024, 40)), (1024, 64, (1024, 64))],
+)
+def test_capacity_power_of_two_record_size_multiple_of_8(
+    capacity: int, record_size: int, shape: tuple[int, int]
+) -> None:
+    ring = _ring(capacity, record_size)
+    assert (ring.capacity, ring.record_size) == shape
+    assert len(ring.data) == shape[0] * shape[1]
+    assert Ring.nbytes(capacity, record_size) == Ring.nbytes(*shape) > shape[0] * shape[1]
+    with pytest.raises(ValueError):
+        Ring.nbytes(0, 8)
+
+
+def test_data_is_64_byte_aligned_in_the_buffer(segment: Segment) -> None:
+    ring = Ring.create(segment.buf[64:], 4, 8)
+    with ring:
+        ring.push(_rec(0x1122))
+        offset = Ring.nbytes(4, 8) - 4 * 8
+        assert offset % 64 == 0
+        assert segment.buf[64 + offset : 64 + offset + 8] == _rec(0x1122)
+
+
+def test_open_sees_the_same_ring() -> None:
+    buf = bytearray(Ring.nbytes(4, 16) + 100)
+    producer = Ring.create(buf, 4, 16)
+    for i in range(6):
+        producer.push(_rec(i))
+    consumer = Ring.open(buf)
+    assert (consumer.capacity, consumer.record_size) == (4, 16)
+    assert len(consumer) == 4 and consumer.dropped == 2 and consumer.produced == 4
+    assert consumer.pop() == _rec(0) + bytes(8)
+    assert len(producer) == 3
+    assert producer.push(_rec(9))
+    assert [consumer.pop() for _ in range(4)] == [_rec(i) + bytes(8) for i in (1, 2, 3, 9)]
+
+
+def test_open_on_garbage_raises() -> None:
+    with pytest.raises(ValueError, match="does not hold an rtcf ring"):
+        Ring.open(bytearray(b"\x01" * 4096))
+    with pytest.raises(ValueError, match="too small"):
+        Ring.open(bytearray(16))
+    with pytest.raises(ValueError, match="writable"):
+        Ring.open(bytes(4096))
+    with pytest.raises(ValueError, match="too small for a ring"):
+        Ring.create(bytearray(100), 4, 8)
+    buf = bytearray(Ring.nbytes(4, 8))
+    Ring.create(buf, 4, 8).close()
+    with pytest.raises(ValueError, match="does not hold an rtcf mailbox"):
+        Mailbox.open(buf)
+
+
+def test_unaligned_buffer_is_refused() -> None:
+    buf = bytearray(Ring.nbytes(4, 8) + 8)
+    with memoryview(buf) as mv, pytest.raises(ValueError, match="8-byte boundary"):
+        Ring.create(mv[3:], 4, 8)
+
+
+# -- Mailbox -----------------------------------------------------------------
+
+
+def test_mailbox_never_written() -> None:
+    box = Mailbox.create(bytearray(Mailbox.nbytes(16)), 16)
+    out = bytearray(16)
+    assert box.try_read_into(out) == -1
+    assert box.read() is None
+    assert box.version == 0
+
+
+def test_mailbox_round_trip_and_version() -> None:
+    buf = bytearray(Mailbox.nbytes(100))
+    writer = Mailbox.create(buf, 100)
+    reader = Mailbox.open(buf)
+    assert reader.size == 100
+    for i in range(1, 6):
+        writer.write(b"value %d" % i)
+        assert reader.version == i
+        assert reader.read() == b"value %d" % i
+    writer.write(b"")
+    assert reader.read() == b""
+    writer.write(bytes(range(100)))
+    out = bytearray(128)
+    assert reader.try_read_into(out) == 100
+    assert out[:100] == bytes(range(100))
+    assert reader.version == 7
+    writer.write(struct.pack("2q", 3, 4))
+    words = bytearray(16)
+    with memoryview(words) as mv, mv.cast("q") as as_words:
+        assert reader.try_read_into(as_words) == 16
+        assert list(as_words) == [3, 4]
+    with pytest.raises(ValueError, match="4 bytes, the value has 16"):
+        reader.try_read_into(bytearray(4))
+
+
+def test_mailbox_payload_too_big() -> None:
+    box = Mailbox.create(bytearray(Mailbox.nbytes(8)), 8)
+    with pytest.raises(ValueError, match="9 bytes exceeds its size of 8 bytes"):
+        box.write(bytes(9))
+    assert box.version == 0
+
+
+def test_mailbox_reader_never_waits_for_the_writer() -> None:
+    box = Mailbox.create(bytearray(Mailbox.nbytes(8)), 8)
+    box.write(_rec(1))
+    out = bytearray(8)
+    real = box._payload
+
+    class Meddler(tuple[memoryview, ...]):
+        """Stands for the payload views: the writer runs twice before the copy."""
+
+        def __getitem__(self, b: int) -> memoryview:  # type: ignore[override]
+            box._payload = real
+            box.write(_rec(2))  # into the other buffer
+            box.write(_rec(3))  # into the one being read
+            return real[b]
+
+    box._payload = Meddler(real)
+    assert box.try_read_into(out) == -2
+    assert box.try_read_into(out) == 8 and out == _rec(3)
+    assert box.version == 3
+
+    meta = box._meta[box._ctl[8]]  # the latest buffer's sequence word, as mid-write
+    meta[0] += 1
+    assert box.try_read_into(out) == -2
+    with pytest.raises(RuntimeError, match="kept changing during 5 read attempts"):
+        box.read(retries=5)
+    meta[0] += 1
+    assert box.read() == _rec(3)
+
+
+# -- Segment -----------------------------------------------------------------
+
+
+def test_segment_file_mode_0600_whatever_the_umask() -> None:
+    old = os.umask(0)
+    try:
+        seg = Segment.create(100)
+    finally:
+        os.umask(old)
+    try:
+        path = os.path.join(SHM_DIR, seg.name)
+        st = os.stat(path)
+        assert stat.S_ISREG(st.st_mode)
+        assert st.st_mode & 0o777 == 0o600
+        assert seg.size == st.st_size == os.sysconf("SC_PAGE_SIZE")
+        assert seg.buf.nbytes == seg.size
+        assert seg.buf.tobytes() == bytes(seg.size)
+        match = NAME.fullmatch(seg.name)
+        assert match and int(match[1]) == os.getpid() and len(match[2]) == 32
+    finally:
+        seg.unlink()
+        seg.close()
+
+
+def test_segment_names_differ() -> None:
+    with Segment.create(1) as a, Segment.create(1) as b:
+        try:
+            assert a.name != b.name
+            assert a.name.startswith(PREFIX) and shm_dir() == SHM_DIR
+        finally:
+            a.unlink()
+            b.unlink()
+
+
+def test_attach_sees_the_creators_writes(segment: Segment) -> None:
+    with Segment.attach(segment.name) as other:
+        assert other.size == segment.size
+        segment.buf[10:15] = b"hello"
+        assert other.buf[10:15] == b"hello"
+        other.buf[0] = 42
+        assert segment.buf[0] == 42
+
+
+def test_channels_in_a_segment_close_cleanly(segment: Segment) -> None:
+    ring = Ring.create(segment.buf, 8, 8)
+    box = Mailbox.create(segment.buf[1024:], 64)
+    with pytest.raises(BufferError, match="views must be released first"):
+        segment.close()
+    assert not segment.closed
+    segment.buf[2000] = 1  # still usable after the refused close
+    ring.close()
+    ring.close()
+    box.close()
+    assert repr(ring) == "<Ring closed>" and repr(box) == "<Mailbox closed>"
+    segment.close()
+    assert segment.closed
+
+
+def test_unlink_removes_the_file_and_the_mapping_still_works() -> None:
+    seg = Segment.create(8192)
+    try:
+        path = os.path.join(SHM_DIR, seg.name)
+        assert os.path.exists(path)
+        seg.unlink()
+        assert not os.path.exists(path)
+        seg.unlink()  # idempotent
+        seg.buf[8191] = 7
+        assert seg.buf[8191] == 7
+        with pytest.raises(FileNotFoundError, match="no shared-memory segment"):
+            Segment.attach(seg.name)
+    finally:
+        seg.unlink()
+        seg.close()
+    seg.close()
+    assert seg.closed
+
+
+def test_leftover_segments_finds_then_forgets() -> None:
+    pid = os.getpid()
+    seg = Segment.create(10)
+    try:
+        assert seg.name in leftover_segments(pid)
+        assert seg.name in leftover_segments()
+        assert seg.name not in leftover_segments(pid + 1)
+    finally:
+        seg.unlink()
+        seg.close()
+    assert seg.name not in leftover_segments(pid)
+
+
+@pytest.mark.parametrize(
+    "name",
+    [
+        "/rtcf-1-" + "0" * 32,
+        "rtcf-1-" + "0" * 31,
+        "rtcf-x-" + "0" * 32,
+        "rtcf-1-" + "G" * 32,
+        "../etc/passwd",
+        "",
+    ],
+)
+def test_attach_bad_name_raises_clearly(name: str) -> None:
+    with pytest.raises(ValueError, match="is not an rtcf shared-memory segment name"):
+        Segment.attach(name)
+
+
+def test_segment_size_must_be_positive() -> None:
+    with pytest.raises(ValueError, match="must be positive"):
+        Segment.create(0)
+
+
+def test_refused_open_leaves_no_view_behind(segment: Segment) -> None:
+    with pytest.raises(ValueError, match="does not hold an rtcf ring"):
+        Ring.open(segment.buf)
+    with pytest.raises(ValueError, match="does not hold an rtcf mailbox"):
+        Mailbox.open(segment.buf[64:])
+    with pytest.raises(ValueError, match="too small for a ring"):
+        Ring.create(segment.buf, 1024, 64)
+    segment.close()  # nothing still exports the mapping
+    assert segment.closed
