@@ -211,8 +211,9 @@ def main() -> int:
         wrapper = c.rt_wrapper(not args.no_rt_wrapper, work)
         print(f"rtcf then the plain loop, {duration:g} s each ...", file=sys.stderr)
         load_before = c.load_avg()
-        run = c.run_rtcf(launch, duration, work / "report", wrapper=wrapper)
-        plain = run_plain(duration)
+        with c.cpu_dma_latency_zero() as held:
+            run = c.run_rtcf(launch, duration, work / "report", wrapper=wrapper)
+            plain = run_plain(duration)
         load_after = c.load_avg()
     print("tight loops ...", file=sys.stderr)
     tight = tight_loops(args.quick)
@@ -255,6 +256,7 @@ def main() -> int:
             "command": " ".join(run.command),
         },
         "plain": plain,
+        "cpu_dma_latency_zero": held,
         "tight_loops_ns_per_iteration": tight,
         "elapsed_s": elapsed,
     }
@@ -272,7 +274,8 @@ def main() -> int:
             [
                 f"Fig. 1 at {FREQUENCY:g} Hz, idle, **{duration:g} s** per run, rtcf then "
                 f"`benchmarks/_plain_loop.py` (the same sums inline, `clock_nanosleep` "
-                f"TIMER_ABSTIME, `time.monotonic_ns` around the work). {how}. "
+                f"TIMER_ABSTIME, `time.monotonic_ns` around the work), `/dev/cpu_dma_latency` "
+                f"held at 0 for both. {how}. "
                 f"Target: ratio ≤ {TARGET_RATIO}x.",
                 "",
                 rt_table,

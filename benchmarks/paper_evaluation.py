@@ -46,15 +46,17 @@ def run_condition(
         }
         result["cyclictest"] = c.run_cyclictest(duration, interval_us=INTERVAL_US)
 
-    if load:
-        # both runs, the tool start-ups and a margin; stopped in the finally of stress()
-        with c.stress(timeout_s=2 * duration + 60) as info:
-            result["stress_ng"] = info
-            result["load_avg_start"] = c.load_avg()
+    with c.cpu_dma_latency_zero() as held:
+        result["cpu_dma_latency_zero"] = held
+        if load:
+            # both runs, the tool start-ups and a margin; stopped in the finally of stress()
+            with c.stress(timeout_s=2 * duration + 60) as info:
+                result["stress_ng"] = info
+                result["load_avg_start"] = c.load_avg()
+                measure()
+        else:
+            result["stress_ng"] = None
             measure()
-    else:
-        result["stress_ng"] = None
-        measure()
     result["load_avg_after"] = c.load_avg()
     return result
 
@@ -151,7 +153,8 @@ def main() -> int:
                 f"rtcf then cyclictest in each condition (`cyclictest -m -p{c.PRIORITY} "
                 f"-i{INTERVAL_US} -a {c.RT_CPU} -h 10000`, same priority and CPU); load: "
                 f"`stress-ng {' '.join(c.stress_args())}` (the paper's 8 cpu + 8 io workers "
-                f"per core). {how}.",
+                f"per core). `/dev/cpu_dma_latency` held at 0 during every run (cyclictest "
+                f"does that by itself; this gives rtcf the same machine). {how}.",
                 "",
                 "Wake-up jitter (rtcf: actual start minus scheduled start of an iteration; "
                 "cyclictest: the same for its C thread, 1 µs buckets):",

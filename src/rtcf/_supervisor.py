@@ -353,6 +353,9 @@ def _worker_env() -> dict[str, str]:
     # the worker must find this very rtcf even when it is not installed
     src = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
     env["PYTHONPATH"] = os.pathsep.join(p for p in (src, env.get("PYTHONPATH", "")) if p)
+    # a component that imports numpy must not start BLAS worker threads beside the loop
+    for key in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+        env.setdefault(key, "1")
     return env
 
 

@@ -15,12 +15,12 @@ import math
 from array import array
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Any
-
-import numpy as np
+from typing import TYPE_CHECKING, Any
 
 from ._channels import Ring
-from ._histogram import LogHistogram
+
+if TYPE_CHECKING:  # the worker never imports numpy: its BLAS would start threads there
+    from ._histogram import LogHistogram
 
 QUANTILES = (("p50", 0.5), ("p90", 0.9), ("p99", 0.99), ("p999", 0.999))
 
@@ -99,6 +99,9 @@ class TimingAggregate:
     """Consumer side: histograms of jitter and calculation time, whole and per component."""
 
     def __init__(self) -> None:
+        from ._histogram import LogHistogram
+
+        self._new = LogHistogram
         self.jitter = LogHistogram()
         self.calc = LogHistogram()
         self.components: dict[str, LogHistogram] = {}
@@ -111,7 +114,9 @@ class TimingAggregate:
         """Aggregate every row waiting in ``ring``; return how many."""
         width = FIXED_COLUMNS + len(components)
         stride = ring.record_size // 8
-        hists = [self.components.setdefault(n, LogHistogram()) for n in components]
+        import numpy as np
+
+        hists = [self.components.setdefault(n, self._new()) for n in components]
         total = 0
         while True:
             start, n = ring.pending()

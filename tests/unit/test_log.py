@@ -6,8 +6,18 @@ import logging
 
 import pytest
 
-from rtcf import LogLevel
-from rtcf._log import ComponentLogger, LogRecord, LogRing, PythonLoggingSink, python_logger_name
+from rtcf import LogLevel, RtcfError
+from rtcf._channels import Ring
+from rtcf._log import (
+    LOG_RECORD_SIZE,
+    ComponentLogger,
+    LogRecord,
+    LogRing,
+    LogWriter,
+    PythonLoggingSink,
+    drain_channel,
+    python_logger_name,
+)
 from rtcf._loop_state import LoopState
 
 
@@ -127,3 +137,61 @@ def test_python_logging_sink(caplog: pytest.LogCaptureFixture) -> None:
     rec = caplog.records[0]
     assert rec.rtcf_component == "/ns/c"  # type: ignore[attr-defined]
     assert rec.rtcf_iteration == 4  # type: ignore[attr-defined]
+
+
+# -- non-real-time logging (the original's NON_RT_* macros) -----------------------------
+def _nonrt_logger(level: int = LogLevel.INFO) -> tuple[ComponentLogger, LoopState, list[tuple]]:
+    state = LoopState()
+    emitted: list[tuple] = []
+    log = ComponentLogger(
+        "/c", LogRing(4), state, level, emit=lambda *a: emitted.append(a)
+    )
+    return log, state, emitted
+
+
+def test_nonrt_logs_at_once_with_the_formatted_text() -> None:
+    log, state, emitted = _nonrt_logger()
+    state.iteration, state.time_ns = 4, 99
+    log.nonrt.info("gain=%.1f", 2.5)
+    log.nonrt.warn("w")
+    assert emitted == [(20, "/c", "gain=2.5", 4, 99), (30, "/c", "w", 4, 99)]
+
+
+def test_nonrt_respects_the_level() -> None:
+    log, _, emitted = _nonrt_logger(LogLevel.WARNING)
+    log.nonrt.debug("d")
+    log.nonrt.info("i")
+    log.nonrt.error("e")
+    log.set_level("debug")
+    log.nonrt.debug("d2")
+    assert [e[2] for e in emitted] == ["e", "d2"]
+
+
+def test_nonrt_raises_while_the_loop_runs() -> None:
+    log, state, emitted = _nonrt_logger(LogLevel.ERROR)
+    state.running = True
+    with pytest.raises(RtcfError, match=r"/c: self\.log\.nonrt\.info\(\) .* while the loop runs"):
+        log.nonrt.info("filtered or not, it is a mistake in update")
+    assert emitted == []
+    log.info("the real-time logger is fine")  # filtered by level, but no error
+
+
+def test_log_writer_round_trip_through_a_ring() -> None:
+    ring = Ring.create(bytearray(Ring.nbytes(4, LOG_RECORD_SIZE)), 4, LOG_RECORD_SIZE)
+    writer = LogWriter(ring)
+    assert writer.push(30, "/ns/comp", "x=%d", (7,), 12, 3400)
+    long_text = "é" * 2000
+    assert writer.push(20, "/c", long_text, (), 13, 0)
+    assert writer.push(20, "/c", "%d %d", (1,), 14, 0)  # a bad format is shown, not raised
+    out: list[tuple] = []
+    n = drain_channel(ring, lambda r: out.append((r.level, r.logger, r.format(), r.iteration)))
+    assert n == 3
+    assert out[0] == (30, "/ns/comp", "x=7", 12)
+    assert out[1][2].endswith("[message cut: longer than a log record]")
+    assert out[1][2].startswith("é" * 100)
+    assert "bad log format" in out[2][2]
+    for _ in range(4):
+        writer.push(20, "/c", "fill", (), 0, 0)
+    assert not writer.push(20, "/c", "one too many", (), 0, 0)
+    assert writer.dropped == 1
+    writer.release()

@@ -11,7 +11,6 @@ from rtcf._channels import Ring
 from rtcf._timing import (
     FIXED_COLUMNS,
     TimingAggregate,
-    TimingSummary,
     local_ring,
     quantile,
     ring_capacity,

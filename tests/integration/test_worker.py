@@ -1,0 +1,331 @@
+"""The loop in its own worker process: isolation, real-time settings, every way it ends.
+
+Each test starts the real command line (a supervisor) which starts a real worker;
+shared-memory segments are looked for in /dev/shm under the supervisor's pid.
+"""
+
+import json
+import os
+import pty
+import re
+import select
+import signal
+import subprocess
+import sys
+import textwrap
+import time
+
+import pytest
+
+from rtcf._channels import leftover_segments
+
+from .conftest import FIXTURES, SRC, run_rtcf
+
+pytestmark = pytest.mark.integration
+
+
+def runner_xml(frequency=200.0, **params):
+    extra = "".join(f'\n    <param name="{k}" value="{v}"/>' for k, v in params.items())
+    return f"""
+  <node name="rt_runner" pkg="rtcf" type="rt_runner">
+    <param name="mode" value="no_wait"/>
+    <param name="frequency" value="{frequency}"/>{extra}
+  </node>"""
+
+
+def write_launch(tmp_path, body, runner=None, name="test.launch"):
+    path = tmp_path / name
+    path.write_text(f"<launch>{runner or runner_xml()}\n{textwrap.dedent(body)}\n</launch>\n")
+    return path
+
+
+FACTS = """
+  <node name="facts" pkg="rtcf" type="rt_launcher" args="rtcf_test_components WorkerFacts"/>"""
+
+
+def env():
+    e = dict(os.environ)
+    e["PYTHONPATH"] = os.pathsep.join([str(SRC), str(FIXTURES), e.get("PYTHONPATH", "")])
+    return e
+
+
+def start(*args, **kwargs):
+    return subprocess.Popen(
+        [sys.executable, "-m", "rtcf", *map(str, args)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        stdin=subprocess.DEVNULL,
+        text=True,
+        env=env(),
+        **kwargs,
+    )
+
+
+def wait_for_line(proc, pattern, timeout=30.0):
+    """Read stderr until a line matches; return the match and what was read."""
+    seen = []
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        ready, _, _ = select.select([proc.stderr], [], [], 0.2)
+        if ready:
+            line = proc.stderr.readline()
+            if not line:
+                break
+            seen.append(line)
+            m = re.search(pattern, line)
+            if m:
+                return m, "".join(seen)
+    raise AssertionError(f"no line matching {pattern!r} in:\n{''.join(seen)}")
+
+
+def alive(pid):
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    # a zombie of ours is gone for our purposes
+    try:
+        with open(f"/proc/{pid}/stat") as f:
+            return f.read().split(")")[-1].split()[0] != "Z"
+    except FileNotFoundError:
+        return False
+
+
+def wait_gone(pid, timeout=10.0):
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        if not alive(pid):
+            return True
+        time.sleep(0.05)
+    return False
+
+
+def test_components_run_in_a_separate_single_threaded_worker(tmp_path):
+    path = write_launch(tmp_path, FACTS)
+    result = run_rtcf("launch", path, "--duration", "0.2")
+    assert result.returncode == 0, result.stderr
+    m = re.search(r"loop in worker process (\d+)", result.stderr)
+    assert m, result.stderr
+    worker = int(m.group(1))
+    facts = re.search(
+        r"facts pid=(\d+) threads=(\d+) tasks=(\d+) gc_enabled=(\w+) policy=(\d+) "
+        r"middleware=(\S+)",
+        result.stderr,
+    )
+    assert facts, result.stderr
+    assert int(facts.group(1)) == worker  # update ran in the worker, not in the CLI
+    assert facts.group(2) == "1" and facts.group(3) == "1"  # one thread, one kernel task
+    assert facts.group(4) == "False"  # the garbage collector is off while running
+    assert int(facts.group(5)) == os.SCHED_FIFO
+    assert facts.group(6) == "none"
+    # configure ran there too, and its non-real-time log line came through
+    assert f"configured in process {worker}" in result.stderr
+    assert wait_gone(worker)
+
+
+def test_realtime_settings_are_applied_reported_and_written(tmp_path):
+    runner = runner_xml(
+        frequency=500.0,
+        priority=70,
+        cpu_affinity_mask=2 if os.cpu_count() > 1 else 1,
+        lock_memory="true",
+        safe_stack_size_kB=256,
+        safe_heap_size_kB=1024,
+    )
+    path = write_launch(tmp_path, FACTS, runner=runner)
+    result = run_rtcf("launch", path, "--duration", "0.5", "--report", tmp_path / "r")
+    assert result.returncode == 0, result.stderr
+    for name in ("scheduler", "cpu_affinity", "mlockall", "heap_prefault", "stack_prefault"):
+        assert re.search(rf"real-time: {name}: applied", result.stderr), result.stderr
+    assert "SCHED_FIFO priority 70" in result.stderr
+    doc = json.loads((tmp_path / "r" / "timing.json").read_text())
+    rt = doc["realtime"]
+    assert rt["scheduler"] == "SCHED_FIFO" and rt["priority"] == 70
+    assert rt["mlockall"] is True
+    assert rt["cpu_affinity"] == ([1] if os.cpu_count() > 1 else [0])
+    assert rt["kernel_preemption"]
+    assert doc["iterations"] == 250 and doc["log_records_dropped"] == 0
+    assert doc["histograms_ns"]["calc"]["count"] == doc["samples"] == 250
+    png = (tmp_path / "r" / "timing.png").read_bytes()
+    assert png.startswith(b"\x89PNG\r\n\x1a\n") and len(png) > 10_000
+
+
+def test_refused_settings_are_reported_and_the_loop_still_runs(tmp_path):
+    if os.geteuid() != 0:
+        pytest.skip("needs root to drop capabilities")
+    path = write_launch(tmp_path, FACTS, runner=runner_xml(lock_memory="true"))
+
+    def without_rt_privileges():
+        # what a normal user has: no CAP_SYS_NICE, no CAP_IPC_LOCK, and low limits
+        import ctypes
+        import resource
+
+        libc = ctypes.CDLL(None, use_errno=True)
+        for cap in (14, 23):  # CAP_IPC_LOCK, CAP_SYS_NICE out of the bounding set
+            assert libc.prctl(24, cap, 0, 0, 0) == 0  # PR_CAPBSET_DROP
+        resource.setrlimit(resource.RLIMIT_RTPRIO, (0, 0))
+        resource.setrlimit(resource.RLIMIT_MEMLOCK, (64 * 1024, 64 * 1024))
+
+    result = subprocess.run(
+        [sys.executable, "-m", "rtcf", "launch", str(path), "--duration", "0.2"],
+        capture_output=True,
+        text=True,
+        env=env(),
+        preexec_fn=without_rt_privileges,
+        timeout=120,
+    )
+    assert result.returncode == 0, result.stderr
+    err = result.stderr
+    assert re.search(r"real-time: scheduler: NOT applied: .*ulimit -r", err), err
+    assert re.search(r"real-time: mlockall: NOT applied: .*ulimit -l", result.stderr)
+    assert re.search(r"policy=0 ", result.stderr)  # it ran, with normal scheduling
+
+
+def test_nothing_is_left_in_dev_shm_after_a_normal_run(tmp_path):
+    proc = start("launch", write_launch(tmp_path, FACTS), "--duration", "0.3")
+    _out, err = proc.communicate(timeout=120)
+    assert proc.returncode == 0, err
+    assert leftover_segments(proc.pid) == []
+
+
+@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
+def test_a_signal_stops_the_loop_runs_the_hooks_and_cleans_up(tmp_path, sig):
+    path = write_launch(
+        tmp_path,
+        """
+      <node name="bomb" pkg="rtcf" type="rt_launcher" args="rtcf_test_components Explodes">
+        <param name="at" value="-1"/>
+      </node>""",
+    )
+    proc = start("launch", path)
+    m, _ = wait_for_line(proc, r"loop in worker process (\d+)")
+    worker = int(m.group(1))
+    wait_for_line(proc, r"running until Ctrl-C")
+    time.sleep(0.3)
+    # while running, the names are already gone from /dev/shm: nothing can leak
+    assert leftover_segments(proc.pid) == []
+    proc.send_signal(sig)
+    out, err = proc.communicate(timeout=60)
+    assert proc.returncode == 0, err
+    assert f"{signal.Signals(sig).name}: stopping after this iteration" in err
+    assert "Explodes stop hook ran" in err and "Explodes cleanup hook ran" in err
+    assert " iterations at 200 Hz" in out
+    assert wait_gone(worker)
+    assert leftover_segments(proc.pid) == []
+
+
+def test_a_worker_killed_with_sigkill_is_reported_and_cleaned_up(tmp_path):
+    proc = start("launch", write_launch(tmp_path, FACTS))
+    m, _ = wait_for_line(proc, r"loop in worker process (\d+)")
+    worker = int(m.group(1))
+    wait_for_line(proc, r"running until Ctrl-C")
+    time.sleep(0.3)
+    os.kill(worker, signal.SIGKILL)
+    _out, err = proc.communicate(timeout=60)
+    assert proc.returncode == 1, err
+    lines = [ln for ln in err.splitlines() if ln.startswith("rtcf: error:")]
+    assert len(lines) == 1, err
+    assert f"worker process (pid {worker}) was killed by SIGKILL" in lines[0]
+    assert "stop() and cleanup() did not run" in lines[0]
+    assert leftover_segments(proc.pid) == []
+
+
+def test_a_supervisor_killed_with_sigkill_takes_its_worker_along(tmp_path):
+    path = write_launch(
+        tmp_path,
+        """
+      <node name="bomb" pkg="rtcf" type="rt_launcher" args="rtcf_test_components Explodes">
+        <param name="at" value="-1"/>
+      </node>""",
+    )
+    proc = start("launch", path)
+    m, _ = wait_for_line(proc, r"loop in worker process (\d+)")
+    worker = int(m.group(1))
+    wait_for_line(proc, r"running until Ctrl-C")
+    proc.kill()
+    proc.communicate(timeout=30)
+    # the worker gets SIGTERM from the kernel (PR_SET_PDEATHSIG), stops and leaves
+    assert wait_gone(worker), "the worker outlived its supervisor"
+    assert leftover_segments(proc.pid) == []
+
+
+def test_a_raising_component_ends_the_run_with_its_name_and_cleans_up(tmp_path):
+    path = write_launch(
+        tmp_path,
+        """
+      <node name="bomb" pkg="rtcf" type="rt_launcher" args="rtcf_test_components Explodes">
+        <param name="at" value="5"/>
+      </node>""",
+    )
+    proc = start("launch", path, "--duration", "10")
+    _out, err = proc.communicate(timeout=60)
+    assert proc.returncode == 1, err
+    lines = [ln for ln in err.splitlines() if ln.startswith("rtcf: error:")]
+    assert len(lines) == 1 and "'/bomb'" in lines[0] and "iteration 5" in lines[0], err
+    assert "Explodes cleanup hook ran" in err
+    assert leftover_segments(proc.pid) == []
+
+
+def test_non_realtime_logging_in_update_is_an_error(tmp_path):
+    path = write_launch(
+        tmp_path,
+        """
+      <node name="slow" pkg="rtcf" type="rt_launcher"
+            args="rtcf_test_components NonRtInUpdate"/>""",
+    )
+    result = run_rtcf("launch", path, "--duration", "1")
+    assert result.returncode == 1
+    lines = [ln for ln in result.stderr.splitlines() if ln.startswith("rtcf: error:")]
+    assert len(lines) == 1, result.stderr
+    assert "/slow" in lines[0] and "self.log.nonrt.info()" in lines[0]
+    assert "while the loop runs" in lines[0] and "iteration 0" in lines[0]
+
+
+def test_a_full_log_ring_drops_counts_and_reports(tmp_path):
+    path = write_launch(
+        tmp_path,
+        """
+      <node name="chatty" pkg="rtcf" type="rt_launcher" args="rtcf_test_components Chatty">
+        <param name="n" value="6000"/>
+      </node>""",
+        runner=runner_xml(frequency=2.0),
+    )
+    result = run_rtcf("launch", path, "--duration", "1", "--report", tmp_path / "r")
+    assert result.returncode == 0, result.stderr
+    shown = len(re.findall(r"record \d+ of iteration", result.stderr))
+    doc = json.loads((tmp_path / "r" / "timing.json").read_text())
+    dropped = doc["log_records_dropped"]
+    assert dropped > 0
+    # every record was either shown or counted as dropped
+    assert shown + dropped == 2 * 6000
+    assert f"warning: {dropped} log records were dropped" in result.stderr
+
+
+def test_live_status_line_on_a_terminal(tmp_path):
+    path = write_launch(tmp_path, FACTS)
+    controller, terminal = pty.openpty()
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "rtcf", "launch", str(path), "--duration", "1.5"],
+        stdin=subprocess.DEVNULL,
+        stdout=subprocess.DEVNULL,
+        stderr=terminal,
+        env=env(),
+    )
+    os.close(terminal)
+    data = b""
+    while True:
+        try:
+            chunk = os.read(controller, 4096)
+        except OSError:  # the terminal closed
+            break
+        if not chunk:
+            break
+        data += chunk
+    proc.wait(timeout=60)
+    os.close(controller)
+    text = data.decode(errors="replace")
+    assert proc.returncode == 0, text
+    status = re.findall(r"\r\s*[\d.]+ s\s+(\d+) iterations\s+(\d+) overruns\s+jitter p99.9", text)
+    assert status, text
+    counts = [int(n) for n, _ in status]
+    assert counts == sorted(counts) and counts[-1] > 0
