@@ -251,6 +251,8 @@ def cmd_launch(ns: argparse.Namespace) -> int:
         try:
             result = runner.run(iterations, trace=ns.trace)
         except ComponentError as exc:
+            if ns.debug:
+                print(getattr(exc, "worker_traceback", ""), file=sys.stderr, end="")
             _say(f"error: {exc}")
             status = 1
             result = None
@@ -280,16 +282,29 @@ def cmd_launch(ns: argparse.Namespace) -> int:
 
 
 def _say_realtime(realtime: dict[str, Any], simulated: bool) -> None:
+    """One line for what took effect, one per setting that did not (with its reason)."""
     if simulated:
         _say("simulated clock: no real-time settings applied")
         return
-    for item in realtime.get("applied", []):
-        state = "applied" if item["ok"] else "NOT applied"
-        _say(f"real-time: {item['name']}: {state}: {item['detail']}")
+    items = realtime.get("applied", [])
+    short = {
+        "scheduler": lambda i: i["requested"],
+        "cpu_affinity": lambda i: i["requested"],
+        "mlockall": lambda i: "mlockall",
+        "heap_prefault": lambda i: f"heap {i['requested']} pre-faulted",
+        "stack_prefault": lambda i: f"stack {i['requested']} pre-faulted",
+        "gc": lambda i: "gc frozen",
+        "timer_slack": lambda i: f"timer slack {i['requested']}",
+    }
+    done = [short.get(i["name"], lambda i: i["name"])(i) for i in items if i["ok"]]
     _say(
-        f"real-time: kernel {realtime.get('kernel_preemption')}, "
-        f"RT throttling {realtime.get('rt_throttling')}"
+        "real-time: "
+        + (", ".join(done) if done else "nothing applied")
+        + f"; kernel {realtime.get('kernel_preemption')}"
     )
+    for item in items:
+        if not item["ok"]:
+            _say(f"warning: real-time: {item['name']} NOT applied: {item['detail']}")
 
 
 class _StatusLine:
@@ -433,6 +448,9 @@ def main(argv: Sequence[str] | None = None) -> int:
         return int(ns.func(ns))
     except RtcfError as exc:
         if ns.debug:
+            remote = getattr(exc, "worker_traceback", "")
+            if remote:
+                print(f"in the worker process:\n{remote}", file=sys.stderr)
             raise
         _say(f"error: {exc}")
         return 1
