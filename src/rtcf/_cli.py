@@ -346,9 +346,13 @@ class _Handler(logging.StreamHandler):  # type: ignore[type-arg,unused-ignore]
 
 
 def _install_stop_handlers(runner: WorkerRunner) -> dict[int, Any]:
+    # counted here: on Ctrl-C the worker gets the signal too and may set the stop word first
+    received = []
+
     def handler(signum: int, frame: FrameType | None) -> None:
-        if runner.stop_requested:  # a second Ctrl-C: give up waiting
+        if received:  # a second Ctrl-C: give up waiting
             raise KeyboardInterrupt
+        received.append(signum)
         _STATUS.clear()
         _say(f"{signal.Signals(signum).name}: stopping after this iteration")
         runner.request_stop()

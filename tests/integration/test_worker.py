@@ -190,8 +190,12 @@ def test_nothing_is_left_in_dev_shm_after_a_normal_run(tmp_path):
     assert leftover_segments(proc.pid) == []
 
 
-@pytest.mark.parametrize("sig", [signal.SIGINT, signal.SIGTERM])
-def test_a_signal_stops_the_loop_runs_the_hooks_and_cleans_up(tmp_path, sig):
+@pytest.mark.parametrize(
+    ("sig", "group"),
+    [(signal.SIGINT, False), (signal.SIGTERM, False), (signal.SIGINT, True)],
+    ids=["SIGINT", "SIGTERM", "Ctrl-C to the process group"],
+)
+def test_a_signal_stops_the_loop_runs_the_hooks_and_cleans_up(tmp_path, sig, group):
     path = write_launch(
         tmp_path,
         """
@@ -199,14 +203,17 @@ def test_a_signal_stops_the_loop_runs_the_hooks_and_cleans_up(tmp_path, sig):
         <param name="at" value="-1"/>
       </node>""",
     )
-    proc = start("launch", path)
+    proc = start("launch", path, start_new_session=group)
     m, _ = wait_for_line(proc, r"loop in worker process (\d+)")
     worker = int(m.group(1))
     wait_for_line(proc, r"running until Ctrl-C")
     time.sleep(0.3)
     # while running, the names are already gone from /dev/shm: nothing can leak
     assert leftover_segments(proc.pid) == []
-    proc.send_signal(sig)
+    if group:  # what a terminal does: the signal reaches supervisor and worker
+        os.killpg(proc.pid, sig)
+    else:
+        proc.send_signal(sig)
     out, err = proc.communicate(timeout=60)
     assert proc.returncode == 0, err
     assert f"{signal.Signals(sig).name}: stopping after this iteration" in err
