@@ -347,7 +347,7 @@ class _Handler(logging.StreamHandler):  # type: ignore[type-arg,unused-ignore]
 
 def _install_stop_handlers(runner: WorkerRunner) -> dict[int, Any]:
     # counted here: on Ctrl-C the worker gets the signal too and may set the stop word first
-    received = []
+    received: list[int] = []
 
     def handler(signum: int, frame: FrameType | None) -> None:
         if received:  # a second Ctrl-C: give up waiting

@@ -12,6 +12,7 @@ reported as an error.
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import signal
 import socket
@@ -233,10 +234,11 @@ class WorkerRunner:
 
     # -- the runner's verbs ------------------------------------------------------
     def load(self, spec: ComponentSpec) -> str:
-        if spec.cls is not None and not spec.module:
+        if spec.cls is not None:
             # the worker imports the class by name, as an rt_launcher would ask for it
-            spec.module, spec.class_name = spec.cls.__module__, spec.cls.__qualname__
-        spec.cls = None
+            spec = dataclasses.replace(
+                spec, cls=None, module=spec.cls.__module__, class_name=spec.cls.__qualname__
+            )
         return str(self.call("load", spec))
 
     def unload(self, name: str) -> None:
