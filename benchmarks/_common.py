@@ -117,6 +117,16 @@ def machine_line(m: Mapping[str, Any]) -> str:
     )
 
 
+def steal_ms(cpu: int = RT_CPU) -> float:
+    """Time the hypervisor ran something else on ``cpu`` (/proc/stat, 10 ms resolution)."""
+    with contextlib.suppress(OSError, IndexError, ValueError):
+        for line in Path("/proc/stat").read_text().splitlines():
+            fields = line.split()
+            if fields[0] == f"cpu{cpu}":
+                return int(fields[8]) * 1000 / os.sysconf("SC_CLK_TCK")
+    return math.nan
+
+
 def load_avg() -> list[float]:
     return [round(x, 2) for x in os.getloadavg()]
 
@@ -169,6 +179,38 @@ def histogram_quantiles(
     out["max"] = float(maximum)
     out["mean"] = sum(b * c for b, c in buckets) / max(1, total - overflows)
     return out
+
+
+def merge_ns_histograms(hists: Sequence[Mapping[str, Any]]) -> dict[str, float]:
+    """Quantiles in µs over several of rtcf's ``histograms_ns`` entries, merged.
+
+    Buckets are given by their lower bound (relative width 1/sub_buckets, under 1 %);
+    a quantile is the lower bound of the bucket holding its rank; min and max are exact.
+    """
+    counts: dict[int, int] = {}
+    for h in hists:
+        for lower, n in h["buckets"]:
+            counts[int(lower)] = counts.get(int(lower), 0) + int(n)
+    total = sum(counts.values())
+    if total == 0:
+        return {}
+    ordered = sorted(counts.items())
+    out = {"min": min(h["min"] for h in hists) / 1e3}
+    for key, q in QUANTILES:
+        rank, seen = max(1, math.ceil(q * total)), 0
+        for lower, n in ordered:
+            seen += n
+            if seen >= rank:
+                out[key] = lower / 1e3
+                break
+    out["max"] = max(h["max"] for h in hists) / 1e3
+    out["mean"] = sum(h["sum"] for h in hists) / total / 1e3
+    return out
+
+
+def count_above(hist: Mapping[str, Any], threshold_ns: int) -> int:
+    """Samples of one of rtcf's ``histograms_ns`` entries in buckets at or above a bound."""
+    return sum(int(n) for lower, n in hist["buckets"] if int(lower) >= threshold_ns)
 
 
 def ratio(a: float | None, b: float | None) -> float:
@@ -227,6 +269,7 @@ def launch_xml(
     cpu: int = RT_CPU,
     priority: int = PRIORITY,
     lock_memory: bool = True,
+    wait_policy: str = "absolute",
 ) -> str:
     """A ROS 1 launch file with one rt_runner and the given rt_launcher nodes."""
     lines = [
@@ -234,6 +277,7 @@ def launch_xml(
         '    <node name="rt_runner" pkg="rtcf" type="rt_runner" output="screen">',
         '        <rosparam param="mode">"no_wait"</rosparam>',
         f'        <rosparam param="frequency">{float(frequency)}</rosparam>',
+        f'        <rosparam param="wait_policy">"{wait_policy}"</rosparam>',
         f'        <rosparam param="priority">{priority}</rosparam>',
         f'        <rosparam param="lock_memory">{lock_memory}</rosparam>',
         f'        <rosparam param="cpu_affinity_mask">{1 << cpu}</rosparam>',
@@ -260,14 +304,16 @@ class RtcfRun:
     timing: dict[str, Any]
     command: list[str]
     total_wall_s: float
-    setup_s: float  # wall time from spawning the CLI until the loop started (estimated)
+    setup_s: float  # wall time from spawning the CLI until the loop started (upper bound)
     setup_source: str  # how setup_s was found
     stdout: str
     stderr: str
     wrapper: list[str]
+    steal_ms: float  # hypervisor steal time on the loop's CPU during the whole run
 
 
 _RAN = re.compile(r"^ran \d+ iterations")
+_STARTED = re.compile(r"^rtcf: real-time:")
 _wrapper_cache: list[str] | None = None
 
 
@@ -314,6 +360,7 @@ def run_rtcf(
     ]
     out: list[tuple[float, str]] = []
     err: list[tuple[float, str]] = []
+    steal0 = steal_ms()
     started = time.perf_counter()
     proc = subprocess.Popen(
         cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=REPO
@@ -340,16 +387,22 @@ def run_rtcf(
         tail = " | ".join(stderr.strip().splitlines()[-3:])
         raise BenchmarkError(f"rtcf launch failed (exit {rc}): {tail or 'no output'}")
     timing = json.loads(path.read_text())
-    # the loop ends just before the CLI prints 'ran N iterations'; it started one loop
-    # duration earlier (iterations / frequency): what comes before is launch time
+    # Two upper bounds of the time until the first iteration, the tighter one wins: rtcf
+    # prints 'real-time:' once the worker has said it starts the loop (the supervisor may
+    # print it late), and prints 'ran N iterations' after the loop, which took loop_s.
     loop_s = float(timing.get("duration_s") or duration_s)
+    bounds = {"total wall time minus the loop's duration": total - loop_s}
+    first_rt = next((t for t, line in err if _STARTED.search(line)), None)
+    if first_rt is not None:
+        bounds["wall time until the CLI printed 'real-time:'"] = first_rt - started
     ran = next((t for t, line in err + out if _RAN.search(line)), None)
     if ran is not None:
-        setup = ran - started - loop_s
-        source = "wall time until the CLI printed 'ran N iterations', minus the loop's duration"
-    else:
-        setup, source = total - loop_s, "total wall time minus the loop's duration"
-    return RtcfRun(timing, cmd, total, setup, source, stdout, stderr, list(wrapper))
+        bounds["wall time until the CLI printed 'ran N iterations', minus the loop's duration"] = (
+            ran - started - loop_s
+        )
+    source, setup = min(bounds.items(), key=lambda kv: kv[1])
+    steal = steal_ms() - steal0
+    return RtcfRun(timing, cmd, total, setup, source, stdout, stderr, list(wrapper), steal)
 
 
 def is_fifo(timing: Mapping[str, Any]) -> bool:
@@ -392,6 +445,7 @@ def rt_conditions(run: RtcfRun) -> dict[str, Any]:
     """The realtime section of timing.json plus what the benchmark added."""
     rt = dict(run.timing.get("realtime", {}))
     rt["wrapper"] = " ".join(run.wrapper) or None
+    rt["steal_ms"] = run.steal_ms
     return rt
 
 
@@ -425,6 +479,7 @@ def run_cyclictest(
         "-h",
         str(max_us),
     ]
+    steal0 = steal_ms(cpu)
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         stdout, stderr = proc.communicate(timeout=duration_s * 3 + 60)
@@ -457,6 +512,7 @@ def run_cyclictest(
         "loops": loops,
         "samples": sum(hist.values()) + overflows,
         "overflows": overflows,
+        "steal_ms": steal_ms(cpu) - steal0,
         "latency_us": stats,
         "histogram": {str(k): v for k, v in sorted(hist.items())},
     }
@@ -559,8 +615,16 @@ def now_iso() -> str:
 def write_results(name: str, data: Mapping[str, Any], quick: bool) -> Path:
     RESULTS.mkdir(parents=True, exist_ok=True)
     path = RESULTS / (f"{name}-quick.json" if quick else f"{name}.json")
-    path.write_text(json.dumps(data, indent=2, default=_json_default) + "\n")
+    text = json.dumps(data, indent=2, default=_json_default)
+    # lists of numbers (histogram buckets) on one line each: a readable diff, a third the size
+    text = _NUMBER_LIST.sub(
+        lambda m: "[" + ", ".join(x.strip() for x in m.group(1).split(",")) + "]", text
+    )
+    path.write_text(text + "\n")
     return path
+
+
+_NUMBER_LIST = re.compile(r"\[\s*((?:-?[\d.eE+-]+,?\s*)+)\]")
 
 
 def _json_default(obj: Any) -> Any:
@@ -615,7 +679,16 @@ def workdir() -> Iterator[Path]:
 
 
 def main_guard(fn: Any) -> None:
-    """Run ``fn()``; a BenchmarkError ends with one line and exit 1, Ctrl-C with 130."""
+    """Run ``fn()``; a BenchmarkError ends with one line and exit 1, Ctrl-C with 130.
+
+    SIGTERM is turned into KeyboardInterrupt so that the finally blocks stop stress-ng
+    and the other children on it too.
+    """
+
+    def terminate(signum: int, frame: Any) -> None:
+        raise KeyboardInterrupt
+
+    signal.signal(signal.SIGTERM, terminate)
     try:
         sys.exit(fn())
     except BenchmarkError as exc:

@@ -44,6 +44,7 @@ def run_plain(duration: float) -> dict[str, Any]:
         "--priority",
         str(c.PRIORITY),
     ]
+    steal0 = c.steal_ms()
     proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
     try:
         out, err = proc.communicate(timeout=duration * 3 + 60)
@@ -53,6 +54,7 @@ def run_plain(duration: float) -> dict[str, Any]:
         raise c.BenchmarkError(f"plain loop failed (exit {proc.returncode}): {err.strip()}")
     data: dict[str, Any] = json.loads(out)
     data["command"] = " ".join(cmd)
+    data["steal_ms"] = c.steal_ms() - steal0
     return data
 
 
@@ -229,6 +231,10 @@ def main() -> int:
         rows.append([series, "plain Python loop", *c.stat_cells(plain[key], keys)])
         rows.append([series, "ratio rtcf / plain", *(c.fmt_ratio(x) for x in ratios)])
     rt_table = c.table(["series", "[µs]", *labels], rows)
+    steal = (
+        f"Steal time on CPU {c.RT_CPU} (/proc/stat): rtcf {c.fmt(run.steal_ms, 0)} ms, "
+        f"plain loop {c.fmt(plain['steal_ms'], 0)} ms"
+    )
     micro_rows = [
         [k, c.fmt(v, 0) if "[µs]" not in k else c.fmt(v, 2)]
         for k, v in tight.items()
@@ -238,6 +244,7 @@ def main() -> int:
     print(f"machine: {c.machine_line(machine)}")
     print(f"Fig. 1 at {FREQUENCY:g} Hz, {duration:g} s each, idle; target ≤ {TARGET_RATIO}x")
     print(rt_table)
+    print(steal)
     print()
     print(f"tight loops: {tight['conditions']}")
     print(micro_table)
@@ -279,6 +286,8 @@ def main() -> int:
                 f"Target: ratio ≤ {TARGET_RATIO}x.",
                 "",
                 rt_table,
+                "",
+                steal + ".",
                 "",
                 f"The same work in tight loops in one process, no sleeping "
                 f"({tight['conditions']}):",

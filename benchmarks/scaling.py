@@ -5,8 +5,8 @@ N-1 ``rtcf_examples Identity`` components (in_port -> out_port, copied when new)
 every component reads and writes a port in every iteration. Each size runs at a rate
 it can sustain, at SCHED_FIFO 80 on the loop's CPU. Per-component cost is the
 iteration's p50 divided by N; launch time is the wall time from spawning ``rtcf`` until
-the loop starts (estimated: until it prints ``ran N iterations``, minus the loop's
-duration).
+the loop starts (an upper bound: the earlier of the CLI printing its ``real-time:``
+line and printing ``ran N iterations`` minus the loop's duration).
 
     .venv/bin/python benchmarks/scaling.py [--duration S] [--quick]
 """
@@ -158,9 +158,10 @@ def main() -> int:
             [
                 f"A chain of one `Sine` and N-1 `Identity` components (every one reads and "
                 f"writes a port each iteration), **{duration:g} s** per size, idle; {how}. "
-                "Launch: wall time from spawning `rtcf launch` until the loop started, estimated "
-                "as the time until it printed `ran N iterations` minus the loop's duration "
-                "(interpreter start, parsing, imports, loading, wiring, starting the worker).",
+                "Launch: wall time from spawning `rtcf launch` until the loop started "
+                "(interpreter start, parsing, imports, loading, wiring, starting the worker, "
+                "mlockall, pre-faulting), an upper bound: the earlier of the CLI printing its "
+                "`real-time:` line and printing `ran N iterations` minus the loop's duration.",
                 "",
                 tab,
                 "",

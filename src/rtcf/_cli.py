@@ -19,10 +19,11 @@ from ._deployment import Deployment, RunnerDeployment, plan
 from ._errors import ComponentError, LaunchError, RtcfError
 from ._graph import Graph, to_dot, to_mermaid
 from ._launch_xml import parse_launch_file
+from ._names import basename, namespace_of
 from ._report import format_summary, write_report
 from ._runner import Runner
 from ._substitutions import find_package
-from ._supervisor import LiveStatus, WorkerRunner
+from ._supervisor import Bridge, LiveStatus, WorkerRunner
 
 EPILOG = """\
 examples:
@@ -200,6 +201,7 @@ def cmd_launch(ns: argparse.Namespace) -> int:
     target = deployment.runner
     settings = target.settings
     status_line = None if ns.quiet else _STATUS
+    bridge = _bridge(ns.middleware, target.name)
     runner = WorkerRunner(
         settings,
         name=target.name,
@@ -208,6 +210,7 @@ def cmd_launch(ns: argparse.Namespace) -> int:
         log_level=ns.log_level,
         on_status=status_line.show if status_line else None,
         on_started=lambda realtime: _say_realtime(realtime, ns.sim),
+        bridge=bridge,
     )
     status = 0
     previous = _install_stop_handlers(runner)
@@ -279,6 +282,16 @@ def cmd_launch(ns: argparse.Namespace) -> int:
         _restore_handlers(previous)
         runner.close()
     return status
+
+
+def _bridge(middleware: str, runner_name: str) -> Bridge | None:
+    if middleware == "none":
+        return None
+    from ._ros2 import Ros2Bridge
+
+    bridge = Ros2Bridge(basename(runner_name), namespace_of(runner_name))
+    _say(f"middleware ros2: node {runner_name}")
+    return bridge
 
 
 def _say_realtime(realtime: dict[str, Any], simulated: bool) -> None:
@@ -402,6 +415,12 @@ def build_parser() -> argparse.ArgumentParser:
         "--report", metavar="DIR", help="write timing.json and timing.png (histograms) into DIR"
     )
     launch.add_argument("--quiet", action="store_true", help="no live status line on a terminal")
+    launch.add_argument(
+        "--middleware",
+        choices=["none", "ros2"],
+        default="none",
+        help="map whitelisted ports to topics of this middleware (default none)",
+    )
     launch.add_argument(
         "--trace",
         metavar="CSV",

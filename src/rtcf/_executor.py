@@ -71,6 +71,7 @@ class Executor:
         *,
         wait_policy: str = "absolute",
         idle: Callable[[], object] | None = None,
+        feeders: Sequence[Callable[[], object]] = (),
     ) -> None:
         self.updates = tuple(updates)
         self.clock = clock
@@ -78,6 +79,8 @@ class Executor:
         self.timing = timing
         self.relative = wait_policy == "relative"
         self.idle = idle
+        # run first in every iteration: copy the newest middleware messages into inputs
+        self.feeders = tuple(feeders)
         self.origin_ns: int | None = None  # time of the very first scheduled start
         # where the next iteration is due; a later run() resumes on this grid
         self.next_deadline_ns: int | None = None
@@ -103,6 +106,7 @@ class Executor:
         period = state.period_ns
         relative = self.relative
         idle = self.idle
+        feeders = self.feeders
         overruns = timing.overruns
         count = timing.count
 
@@ -130,6 +134,9 @@ class Executor:
                 state.iteration = i
                 state.time_ns = deadline - origin
                 t = t0
+                if feeders:
+                    for feed in feeders:
+                        feed()
                 for k, update in indexed:
                     update()
                     t1 = now()

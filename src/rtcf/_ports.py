@@ -55,8 +55,12 @@ class Port(Generic[T]):
 class OutputPort(Port[T]):
     """An output port: ``write(value)`` makes ``value`` the topic's latest value."""
 
-    __slots__ = ()
+    __slots__ = ("_tap",)
     direction = "output"
+
+    def __init__(self, component: str, name: str, type_: type[T]) -> None:
+        super().__init__(component, name, type_)
+        self._tap: Any = None  # set while the port is mapped to the middleware
 
     def write(self, value: T) -> None:
         slot = self._slot

@@ -9,7 +9,7 @@ their slots; nothing is looked up by name while the loop runs.
 from __future__ import annotations
 
 import re
-from collections.abc import Callable, Iterable, Mapping
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -25,6 +25,7 @@ from ._log import LogLevel, LogRecord, LogRing, PythonLoggingSink, RecordSink
 from ._loop_state import LoopState
 from ._names import Resolver, join, normalize_namespace, validate_name
 from ._params import ParameterStore
+from ._ports import InputPort, OutputPort
 from ._settings import RunnerSettings
 from ._timing import TimingAggregate, TimingSummary, TimingWriter, local_ring
 
@@ -325,6 +326,7 @@ class Runner:
         on_iteration: Callable[[], object] | None = None,
         drain_logs_every_iteration: bool = True,
         timing_ring: Ring | None = None,
+        feeders: Sequence[Callable[[], object]] = (),
     ) -> RunResult:
         """Run the loop for ``iterations`` iterations, or until :meth:`request_stop`.
 
@@ -346,6 +348,7 @@ class Runner:
             aggregate = TimingAggregate()
         writer = TimingWriter(self._schedule, timing_ring)
         executor.timing = writer
+        executor.feeders = tuple(feeders)
         executor.idle = self._idle_hook(
             on_iteration, drain_logs_every_iteration, aggregate, timing_ring
         )
@@ -366,6 +369,7 @@ class Runner:
         finally:
             executor.idle = None
             executor.timing = None
+            executor.feeders = ()
             writer.release()
         self.drain_logs()
         stopped_by = "count" if iterations is not None and ran >= iterations else "stop"
@@ -410,6 +414,25 @@ class Runner:
     def request_stop(self) -> None:
         """End the loop after the current iteration (safe from a signal handler)."""
         self.stop_flag.set()
+
+    def mapped_ports(self) -> tuple[list[OutputPort[Any]], list[InputPort[Any]]]:
+        """Outputs whose topic maps to the middleware, and mapped inputs nothing here feeds.
+
+        An input whose topic a component inside the runner produces is never fed from
+        the middleware: that would be a second, non-real-time writer.
+        """
+        if self._executor is None:
+            self._executor = self._compile()
+        maps = self.settings.maps_to_ros
+        comps = [e.component for e in self._loaded.values()]
+        outputs = [p for c in comps for p in c._rtcf_outputs.values() if maps(p.topic)]
+        inputs = [
+            p
+            for c in comps
+            for p in c._rtcf_inputs.values()
+            if p.producer is None and maps(p.topic)
+        ]
+        return outputs, inputs
 
     @property
     def schedule(self) -> list[str]:

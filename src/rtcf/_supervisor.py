@@ -22,13 +22,14 @@ import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from multiprocessing.connection import Connection
-from typing import Any
+from typing import Any, Protocol
 
-from ._channels import Ring, Segment
+from ._channels import Mailbox, Ring, Segment
 from ._errors import RtcfError
 from ._executor import STOP
 from ._log import LOG_RECORD_SIZE, LogRecord, PythonLoggingSink, drain_channel
 from ._params import ParameterStore
+from ._port_channels import OUTPUT_RING_RECORDS, MappedPort, segment_size
 from ._runner import ComponentSpec, RunResult
 from ._settings import RunnerSettings
 from ._timing import TimingAggregate, TimingSummary, ring_capacity, row_size
@@ -70,6 +71,7 @@ class WorkerRunner:
         log_capacity: int = 4096,
         on_status: Callable[[LiveStatus], None] | None = None,
         on_started: Callable[[dict[str, Any]], None] | None = None,
+        bridge: Bridge | None = None,
     ) -> None:
         self.settings = settings
         self.name = name
@@ -80,6 +82,7 @@ class WorkerRunner:
         self.log_capacity = log_capacity
         self.on_status = on_status
         self.on_started = on_started
+        self.bridge = bridge
         self.process: subprocess.Popen[bytes] | None = None
         self.conn: Connection | None = None
         self._segments: list[Segment] = []
@@ -269,21 +272,37 @@ class WorkerRunner:
 
     def run(self, iterations: int | None = None, *, trace: str | None = None) -> RunResult:
         """Run the loop in the worker until ``iterations`` ran or :meth:`request_stop`."""
-        schedule: list[str] = self.call("prepare")
+        prepared = self.call("prepare", self.bridge is not None)
+        schedule: list[str] = prepared["schedule"]
+        ports: list[MappedPort] = prepared["ports"]
         capacity = ring_capacity(len(schedule))
         seg = self._segment(Ring.nbytes(capacity, row_size(len(schedule))))
         ring = Ring.create(seg.buf, capacity, row_size(len(schedule)))
+        port_seg, channels = self._port_channels(ports)
         aggregate = TimingAggregate()
         self._timing = (ring, schedule, aggregate)
         self._events.pop("started", None)
         try:
-            done = self.call("run", iterations, seg.name, trace)
+            if self.bridge is not None and ports:
+                self.bridge.open(ports, channels)
+            done = self.call(
+                "run", iterations, seg.name, trace, port_seg.name if port_seg else None, ports
+            )
         finally:
             seg.unlink()
             self._timing = None
             aggregate.finish(ring, schedule)
             ring.close()
             self._close_segment(seg)
+            if self.bridge is not None and ports:
+                self.bridge.close_run()
+            for channel in channels.values():
+                channel.close()
+            if port_seg is not None:
+                self._close_segment(port_seg)
+        for topic, n in done.get("oversize", {}).items():
+            self.log_sink(_note(30, f"{n} messages on {topic} were larger than a channel record "
+                                    "and were not published"))
         timing = aggregate.summary(done["rows"], done["overruns"])
         return RunResult(
             iterations=done["iterations"],
@@ -295,6 +314,23 @@ class WorkerRunner:
             realtime=done["realtime"],
             aggregate=aggregate,
         )
+
+    def _port_channels(
+        self, ports: list[MappedPort]
+    ) -> tuple[Segment | None, dict[str, Ring | Mailbox]]:
+        """One segment holding a ring per mapped output and a mailbox per mapped input."""
+        if not ports:
+            return None, {}
+        seg = self._segment(segment_size(ports))
+        channels: dict[str, Ring | Mailbox] = {}
+        for p in ports:
+            view = seg.buf[p.offset : p.offset + p.nbytes]
+            if p.direction == "output":
+                channels[p.topic] = Ring.create(view, OUTPUT_RING_RECORDS, 8 + p.max_size)
+            else:
+                channels[p.topic] = Mailbox.create(view, p.max_size)
+            view.release()
+        return seg, channels
 
     def _on_started(self) -> None:
         self._events["started_at"] = time.monotonic()
@@ -319,6 +355,9 @@ class WorkerRunner:
 
     def close(self) -> None:
         """Make sure the worker is gone and every segment is unmapped and removed."""
+        if self.bridge is not None:
+            self.bridge.shutdown()
+            self.bridge = None
         proc = self.process
         if proc is not None and proc.poll() is None:
             proc.terminate()  # the worker's SIGTERM handler ends the loop gracefully
@@ -343,6 +382,22 @@ class WorkerRunner:
         seg.unlink()
         seg.close()
         self._segments.remove(seg)
+
+
+class Bridge(Protocol):
+    """A middleware bridge in the supervisor (ROS 2, ROS 1): topics for mapped ports."""
+
+    def open(self, ports: list[MappedPort], channels: dict[str, Ring | Mailbox]) -> None: ...
+
+    def close_run(self) -> None: ...
+
+    def shutdown(self) -> None: ...
+
+
+def _note(level: int, text: str) -> LogRecord:
+    rec = LogRecord()
+    rec.level, rec.logger, rec.msg = level, "rt_runner", text
+    return rec
 
 
 def _counts_only(timing: TimingSummary) -> TimingSummary:

@@ -31,6 +31,7 @@ from ._errors import ComponentError, ConfigurationError, GraphError, LaunchError
 from ._executor import STOP, StopFlag
 from ._log import LogWriter
 from ._params import ParameterStore
+from ._port_channels import MappedPort, WorkerPorts, mapped_ports
 from ._realtime import FrozenGC, RealtimeReport, apply_realtime
 from ._runner import ComponentSpec, Runner
 from ._settings import RunnerSettings
@@ -197,15 +198,28 @@ class Worker:
             "edges": len(graph.edges),
         }
 
-    def prepare(self) -> list[str]:
-        """Compile the schedule; the supervisor sizes the timing ring for it."""
-        return self._runner().schedule
+    def prepare(self, bridged: bool) -> dict[str, Any]:
+        """Compile the schedule and list the mapped ports; the supervisor sizes channels."""
+        runner = self._runner()
+        ports = mapped_ports(*runner.mapped_ports()) if bridged else []
+        return {"schedule": runner.schedule, "ports": ports}
 
-    def run(self, iterations: int | None, timing: str, trace_path: str | None) -> dict[str, Any]:
+    def run(
+        self,
+        iterations: int | None,
+        timing: str,
+        trace_path: str | None,
+        ports_segment: str | None = None,
+        ports: list[MappedPort] | None = None,
+    ) -> dict[str, Any]:
         runner = self._runner()
         seg = Segment.attach(timing)
         ring = Ring.open(seg.buf)
         trace = Trace(runner.components, runner.state) if trace_path else None
+        port_seg = Segment.attach(ports_segment) if ports_segment else None
+        bridge = None
+        if port_seg is not None and ports:
+            bridge = WorkerPorts(port_seg.buf, ports, *runner.mapped_ports())
         try:
             if self.realtime is None:  # once per worker: scheduling, affinity, memory
                 self.realtime = apply_realtime(self.settings, simulated=self.simulated)
@@ -215,11 +229,17 @@ class Worker:
                     iterations,
                     timing_ring=ring,
                     on_iteration=trace.sample if trace else None,
+                    feeders=bridge.feeders if bridge else (),
                 )
             realtime = self.realtime.to_dict()
         finally:
             ring.close()
             seg.close()
+            oversize = bridge.counts() if bridge else {}
+            if bridge is not None:
+                bridge.release()
+            if port_seg is not None:
+                port_seg.close()
         if trace is not None and trace_path:
             trace.write(trace_path)
         return {
@@ -231,6 +251,7 @@ class Worker:
             "simulated": result.simulated,
             "realtime": realtime,
             "last_iteration": runner.state.iteration,
+            "oversize": oversize,
         }
 
     def shutdown(self) -> list[dict[str, Any]]:

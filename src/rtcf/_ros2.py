@@ -1,0 +1,211 @@
+"""The ROS 2 bridge: mapped ports as ROS 2 topics, in the supervisor process only.
+
+rclpy lives here and never in the worker (../shared/design.md, decisions 1 and 2).
+A thread of the supervisor spins a node named after the runner. It publishes every
+record that the worker's output taps pushed, and writes every message of a mapped
+input topic into that input's mailbox, where the loop picks up the newest one at the
+start of its next iteration. ROS message classes cross as serialized bytes (raw
+publish and raw subscriptions); float, int, bool and str become std_msgs Float64,
+Int64, Bool and String, and a 1-D float numpy array Float64MultiArray.
+
+QoS: reliable, keep last 10, volatile: what ``ros2 topic pub/echo`` use by default,
+so the usual tools connect.
+"""
+
+from __future__ import annotations
+
+import importlib
+import struct
+import threading
+from collections.abc import Callable
+from typing import Any
+
+from ._channels import Mailbox, Ring
+from ._errors import RtcfError
+from ._port_channels import MappedPort, read_record
+
+QOS_DEPTH = 10
+SPIN_TIMEOUT_S = 0.0005  # how long the bridge thread waits for ROS events per turn
+
+_STD = {
+    "float": ("std_msgs.msg", "Float64"),
+    "int": ("std_msgs.msg", "Int64"),
+    "bool": ("std_msgs.msg", "Bool"),
+    "str": ("std_msgs.msg", "String"),
+    "float_array": ("std_msgs.msg", "Float64MultiArray"),
+}
+
+
+def _import_rclpy() -> Any:
+    try:
+        import rclpy
+    except ImportError as exc:
+        raise RtcfError(
+            f"--middleware ros2 needs rclpy ({exc}); install ROS 2 Jazzy or "
+            "pip install 'rtcf[ros2]'"
+        ) from None
+    return rclpy
+
+
+def message_class(port: MappedPort) -> type:
+    """The ROS 2 message class a mapped port is published or subscribed as."""
+    if port.kind in _STD:
+        module, name = _STD[port.kind]
+    else:
+        package, _, name = port.type_name.split("/")
+        module = f"{package}.msg"
+    try:
+        cls: type = getattr(importlib.import_module(module), name)
+        return cls
+    except (ImportError, AttributeError) as exc:
+        raise RtcfError(
+            f"topic {port.topic}: message type {module}.{name} is not available ({exc}); "
+            "install its package (e.g. pip install ros-jazzy-std-msgs)"
+        ) from None
+
+
+def _to_message(kind: str, cls: type, payload: bytes) -> Any:
+    if kind == "float":
+        return cls(data=struct.unpack("<d", payload)[0])
+    if kind == "int":
+        return cls(data=struct.unpack("<q", payload)[0])
+    if kind == "bool":
+        return cls(data=payload != b"\x00")
+    if kind == "str":
+        return cls(data=payload.decode("utf-8", "replace"))
+    if kind == "float_array":
+        msg = cls()
+        msg.data = list(struct.unpack(f"<{len(payload) // 8}d", payload))
+        return msg
+    return payload  # already serialized: published raw
+
+
+def _from_message(kind: str, msg: Any) -> bytes:
+    if kind == "float":
+        return struct.pack("<d", float(msg.data))
+    if kind == "int":
+        return struct.pack("<q", int(msg.data))
+    if kind == "bool":
+        return b"\x01" if msg.data else b"\x00"
+    if kind == "str":
+        return str(msg.data).encode("utf-8")
+    if kind == "float_array":
+        data = list(msg.data)
+        return struct.pack(f"<{len(data)}d", *data)
+    return bytes(msg)  # a raw subscription delivers the serialized bytes
+
+
+class Ros2Bridge:
+    """A ROS 2 node for one runner; its thread moves messages between ROS and channels."""
+
+    def __init__(self, name: str, namespace: str = "/", args: list[str] | None = None) -> None:
+        rclpy = _import_rclpy()
+        from rclpy.executors import SingleThreadedExecutor
+        from rclpy.node import Node
+
+        self._rclpy = rclpy
+        self.context = rclpy.Context()
+        rclpy.init(args=args, context=self.context, signal_handler_options=_no_signals(rclpy))
+        self.node = Node(name, namespace=namespace, context=self.context)
+        self.executor = SingleThreadedExecutor(context=self.context)
+        self.executor.add_node(self.node)
+        self._lock = threading.Lock()
+        self._outputs: list[tuple[Ring, Any, Callable[[bytes], Any]]] = []
+        self._subscriptions: list[Any] = []
+        self._publishers: list[Any] = []
+        self.published: dict[str, int] = {}
+        self.received: dict[str, int] = {}
+        self._running = True
+        self._thread = threading.Thread(target=self._spin, name="rtcf-ros2", daemon=True)
+        self._thread.start()
+
+    # -- per run -------------------------------------------------------------------
+    def open(self, ports: list[MappedPort], channels: dict[str, Ring | Mailbox]) -> None:
+        with self._lock:
+            for port in ports:
+                cls = message_class(port)
+                channel = channels[port.topic]
+                if port.direction == "output":
+                    assert isinstance(channel, Ring)
+                    pub = self.node.create_publisher(cls, port.topic, QOS_DEPTH)
+                    self._publishers.append(pub)
+                    kind = port.kind
+
+                    def convert(payload: bytes, kind: str = kind, cls: type = cls) -> Any:
+                        return _to_message(kind, cls, payload)
+
+                    self._outputs.append((channel, pub, convert))
+                    self.published.setdefault(port.topic, 0)
+                else:
+                    assert isinstance(channel, Mailbox)
+                    self.received.setdefault(port.topic, 0)
+                    self._subscriptions.append(
+                        self.node.create_subscription(
+                            cls,
+                            port.topic,
+                            self._feeder(port, channel),
+                            QOS_DEPTH,
+                            raw=port.kind == "ros2",
+                        )
+                    )
+
+    def _feeder(self, port: MappedPort, box: Mailbox) -> Callable[[Any], None]:
+        kind, topic = port.kind, port.topic
+        received = self.received
+
+        def on_message(msg: Any) -> None:
+            payload = _from_message(kind, msg)
+            if len(payload) <= box.size:
+                box.write(payload)
+                received[topic] += 1
+
+        return on_message
+
+    def close_run(self) -> None:
+        """Publish what is left, then let go of the run's channels."""
+        with self._lock:
+            self._drain()
+            for pub in self._publishers:
+                self.node.destroy_publisher(pub)
+            for sub in self._subscriptions:
+                self.node.destroy_subscription(sub)
+            self._outputs.clear()
+            self._publishers.clear()
+            self._subscriptions.clear()
+
+    # -- the bridge thread -------------------------------------------------------
+    def _spin(self) -> None:
+        while self._running:
+            with self._lock:
+                try:
+                    self.executor.spin_once(timeout_sec=SPIN_TIMEOUT_S)
+                except Exception:  # shutting down
+                    if not self._running:
+                        return
+                    raise
+                self._drain()
+
+    def _drain(self) -> None:
+        for ring, pub, convert in self._outputs:
+            while True:
+                start, n = ring.pending()
+                if n == 0:
+                    break
+                for slot in range(start, start + n):
+                    pub.publish(convert(read_record(ring, slot)))
+                ring.release(n)
+                self.published[pub.topic_name] = self.published.get(pub.topic_name, 0) + n
+
+    def shutdown(self) -> None:
+        self._running = False
+        self._thread.join(timeout=5.0)
+        self.executor.shutdown()
+        self.node.destroy_node()
+        self._rclpy.shutdown(context=self.context)
+
+
+def _no_signals(rclpy: Any) -> Any:
+    """rclpy must not take over SIGINT: the supervisor stops the loop gracefully."""
+    from rclpy.signals import SignalHandlerOptions
+
+    return SignalHandlerOptions.NO
