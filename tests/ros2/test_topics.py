@@ -1,0 +1,124 @@
+"""Ports mapped to ROS 2 topics, end to end through a real rclpy graph."""
+
+import select
+import signal
+import textwrap
+import time
+
+import pytest
+import rclpy
+from std_msgs.msg import Float64
+
+from .conftest import start_rtcf
+
+pytestmark = pytest.mark.integration
+
+
+def wait_running(proc, timeout=30.0):
+    seen = []
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        ready, _, _ = select.select([proc.stderr], [], [], 0.2)
+        if ready:
+            line = proc.stderr.readline()
+            if not line:
+                break
+            seen.append(line)
+            if "running until Ctrl-C" in line:
+                return "".join(seen)
+    proc.kill()
+    raise AssertionError("rtcf did not start:\n" + "".join(seen))
+
+
+def stop(proc):
+    proc.send_signal(signal.SIGINT)
+    out, err = proc.communicate(timeout=60)
+    assert proc.returncode == 0, err
+    return out, err
+
+
+def spin_until(node, predicate, timeout=15.0, publish=None):
+    deadline = time.monotonic() + timeout
+    executor = rclpy.executors.SingleThreadedExecutor(context=node.context)
+    executor.add_node(node)
+    try:
+        while time.monotonic() < deadline:
+            if publish is not None:
+                publish()
+            executor.spin_once(timeout_sec=0.02)
+            if predicate():
+                return True
+        return False
+    finally:
+        executor.remove_node(node)
+
+
+def test_sum_test_outputs_three_times_the_input(ros_node):
+    """The original's SumTest: two chained sums in /rtcf, through real ROS 2 topics."""
+    proc = start_rtcf("launch", "rtcf_examples", "sum_test.launch", "--middleware", "ros2")
+    try:
+        wait_running(proc)
+        got = []
+        ros_node.create_subscription(Float64, "/rtcf/ros/out", lambda m: got.append(m.data), 10)
+        pub = ros_node.create_publisher(Float64, "/rtcf/ros/in", 10)
+
+        def topics():
+            return dict(ros_node.get_topic_names_and_types())
+
+        assert spin_until(ros_node, lambda: ros_node.count_publishers("/rtcf/ros/out") > 0)
+        assert ros_node.count_subscribers("/rtcf/ros/in") > 0
+        assert "/rtcf/ros/blacklisted" not in topics()
+        assert "/rtcf/sum1" not in topics()  # internal: not whitelisted
+        assert topics()["/rtcf/ros/out"] == ["std_msgs/msg/Float64"]
+        for value in (-10.0, 0.0, 20.0, 1234.56):
+            got.clear()
+            assert spin_until(
+                ros_node,
+                lambda v=value: bool(got) and got[-1] == pytest.approx(3 * v),
+                publish=lambda v=value: pub.publish(Float64(data=v)),
+            ), f"no {3 * value} on /rtcf/ros/out (last: {got[-3:]})"
+    finally:
+        if proc.poll() is None:
+            stop(proc)
+
+
+def test_message_typed_ports_cross_as_serialized_bytes(ros_node, tmp_path):
+    path = tmp_path / "scale.launch"
+    path.write_text(
+        textwrap.dedent(
+            """\
+            <launch>
+              <node name="rt_runner" pkg="rtcf" type="rt_runner">
+                <param name="mode" value="no_wait"/>
+                <param name="frequency" value="200.0"/>
+                <param name="ros_mapping_whitelist" value="/ros/.*"/>
+              </node>
+              <node name="a" pkg="rtcf" type="rt_launcher" args="rtcf_ros2_components ScaleMsg">
+                <remap from="in" to="/ros/x"/>
+                <remap from="out" to="/mid"/>
+                <param name="gain" value="2.0"/>
+              </node>
+              <node name="b" pkg="rtcf" type="rt_launcher" args="rtcf_ros2_components ScaleMsg">
+                <remap from="in" to="/mid"/>
+                <remap from="out" to="/ros/y"/>
+                <param name="gain" value="5.0"/>
+              </node>
+            </launch>
+            """
+        )
+    )
+    proc = start_rtcf("launch", path, "--middleware", "ros2")
+    try:
+        wait_running(proc)
+        got = []
+        ros_node.create_subscription(Float64, "/ros/y", lambda m: got.append(m.data), 10)
+        pub = ros_node.create_publisher(Float64, "/ros/x", 10)
+        assert spin_until(
+            ros_node,
+            lambda: bool(got) and got[-1] == pytest.approx(10 * 1.5),
+            publish=lambda: pub.publish(Float64(data=1.5)),
+        ), got[-3:]
+    finally:
+        if proc.poll() is None:
+            _, err = stop(proc)
+            assert "error" not in err.lower(), err
