@@ -323,7 +323,7 @@ def _reader(stream: Any, sink: list[tuple[float, str]]) -> None:
     stream.close()
 
 
-def _stop(proc: subprocess.Popen[Any], grace_s: float = 5.0) -> None:
+def stop_process(proc: subprocess.Popen[Any], grace_s: float = 5.0) -> None:
     """Terminate a child we started (SIGTERM, then SIGKILL), by its own id."""
     if proc.poll() is not None:
         return
@@ -376,7 +376,7 @@ def run_rtcf(
     except subprocess.TimeoutExpired as exc:
         raise BenchmarkError(f"rtcf did not finish in time: {' '.join(cmd)}") from exc
     finally:
-        _stop(proc)
+        stop_process(proc)
         for t in readers:
             t.join(5)
     total = time.perf_counter() - started
@@ -486,7 +486,7 @@ def run_cyclictest(
     except subprocess.TimeoutExpired as exc:
         raise BenchmarkError(f"cyclictest did not finish in time: {' '.join(cmd)}") from exc
     finally:
-        _stop(proc)
+        stop_process(proc)
     if proc.returncode != 0:
         raise BenchmarkError(f"cyclictest failed (exit {proc.returncode}): {stderr.strip()}")
     hist: dict[int, int] = {}
@@ -616,15 +616,18 @@ def write_results(name: str, data: Mapping[str, Any], quick: bool) -> Path:
     RESULTS.mkdir(parents=True, exist_ok=True)
     path = RESULTS / (f"{name}-quick.json" if quick else f"{name}.json")
     text = json.dumps(data, indent=2, default=_json_default)
-    # lists of numbers (histogram buckets) on one line each: a readable diff, a third the size
+    # lists of numbers, and lists of such pairs (histogram buckets), on one line each
     text = _NUMBER_LIST.sub(
         lambda m: "[" + ", ".join(x.strip() for x in m.group(1).split(",")) + "]", text
     )
+    text = _PAIR_LIST.sub(lambda m: "[" + ", ".join(_PAIR.findall(m.group(0))) + "]", text)
     path.write_text(text + "\n")
     return path
 
 
 _NUMBER_LIST = re.compile(r"\[\s*((?:-?[\d.eE+-]+,?\s*)+)\]")
+_PAIR = re.compile(r"\[[^\[\]]*\]")
+_PAIR_LIST = re.compile(r"\[\s*(?:\[[-\d.eE+, ]*\],?\s*)+\]")
 
 
 def _json_default(obj: Any) -> Any:

@@ -33,7 +33,7 @@ class Timespec(ctypes.Structure):
     _fields_ = [("tv_sec", ctypes.c_long), ("tv_nsec", ctypes.c_long)]
 
 
-def summarize(values: array, n: int) -> dict[str, float]:
+def summarize(values: array[int], n: int) -> dict[str, float]:
     """Nearest-rank quantiles in µs of the first ``n`` nanosecond samples."""
     s = sorted(values[:n])
     out = {"min": s[0] / 1e3}
@@ -53,7 +53,7 @@ def main() -> None:
     args = p.parse_args()
 
     libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6", use_errno=True)
-    realtime = {"scheduler": "SCHED_OTHER", "priority": None, "mlockall": False}
+    realtime: dict[str, object] = {"scheduler": "SCHED_OTHER", "priority": None}
     if args.cpu is not None:
         os.sched_setaffinity(0, {args.cpu})
     try:
@@ -73,8 +73,8 @@ def main() -> None:
 
     period = round(1e9 / args.frequency)
     n = max(1, round(args.duration * args.frequency))
-    jitter = array("q", bytes(8 * n))
-    calc = array("q", bytes(8 * n))
+    jitter: array[int] = array("q", bytes(8 * n))
+    calc: array[int] = array("q", bytes(8 * n))
     overruns = 0
     # outputs of the previous iteration (H1 reads R1 and R3 one iteration late)
     r1 = r3 = 0.0

@@ -49,7 +49,7 @@ def run_plain(duration: float) -> dict[str, Any]:
     try:
         out, err = proc.communicate(timeout=duration * 3 + 60)
     finally:
-        c._stop(proc)
+        c.stop_process(proc)
     if proc.returncode != 0:
         raise c.BenchmarkError(f"plain loop failed (exit {proc.returncode}): {err.strip()}")
     data: dict[str, Any] = json.loads(out)
@@ -249,7 +249,7 @@ def main() -> int:
     print(f"tight loops: {tight['conditions']}")
     print(micro_table)
     print(f"total {elapsed:.0f} s")
-    data = {
+    data: dict[str, Any] = {
         "benchmark": NAME,
         "timestamp": c.now_iso(),
         "duration_s_per_run": duration,
@@ -270,7 +270,7 @@ def main() -> int:
     path = c.write_results(NAME, data, args.quick)
     print(f"wrote {path.relative_to(c.REPO)}")
     if not args.quick:
-        rtc = data["rtcf"]["realtime"]
+        rtc = c.rt_conditions(run)
         how = (
             f"rtcf reported scheduler {rtc.get('scheduler')}, mlockall {rtc.get('mlockall')}"
             + (f", run under `{rtc['wrapper']}`" if rtc.get("wrapper") else "")

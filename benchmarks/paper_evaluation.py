@@ -77,10 +77,19 @@ def run_condition(
     result["rtcf"] = merge_rtcf(runs)
     result["cyclictest"] = merge_cyclictest(cts)
     result["rounds"] = [
-        {"rtcf_timing": run.timing, "rtcf_setup_s": run.setup_s, "cyclictest": ct}
+        {"rtcf_timing": slim(run.timing), "rtcf_setup_s": run.setup_s, "cyclictest": ct}
         for run, ct in zip(runs, cts, strict=True)
     ]
     return result
+
+
+def slim(timing: dict[str, Any]) -> dict[str, Any]:
+    """timing.json without the per-component histograms (most of its size; quantiles stay)."""
+    out = dict(timing)
+    hist = out.get("histograms_ns")
+    if isinstance(hist, dict):
+        out["histograms_ns"] = {k: v for k, v in hist.items() if k != "components"}
+    return out
 
 
 def merge_rtcf(runs: list[c.RtcfRun]) -> dict[str, Any]:

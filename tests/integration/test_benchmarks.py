@@ -1,0 +1,31 @@
+"""The benchmarks run (in --quick mode): they must not rot. Their numbers are not checked."""
+
+import json
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+pytestmark = pytest.mark.integration
+
+ROOT = Path(__file__).resolve().parents[2]
+
+
+@pytest.mark.parametrize("name", ["paper_evaluation", "overhead", "scaling"])
+def test_benchmark_runs_quick_and_writes_its_results(name):
+    docs = (ROOT / "docs" / "performance.md").read_text()
+    result = subprocess.run(
+        [sys.executable, str(ROOT / "benchmarks" / f"{name}.py"), "--quick"],
+        capture_output=True,
+        text=True,
+        cwd=ROOT,
+        timeout=600,
+        stdin=subprocess.DEVNULL,
+    )
+    assert result.returncode == 0, result.stdout + result.stderr
+    assert "x" in result.stdout  # a ratio or a per-size table was printed
+    data = json.loads((ROOT / "benchmarks" / "results" / f"{name}-quick.json").read_text())
+    assert data  # raw numbers were written
+    # --quick leaves the recorded results alone
+    assert (ROOT / "docs" / "performance.md").read_text() == docs
