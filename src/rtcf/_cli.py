@@ -308,6 +308,7 @@ def _say_realtime(realtime: dict[str, Any], simulated: bool) -> None:
         "stack_prefault": lambda i: f"stack {i['requested']} pre-faulted",
         "gc": lambda i: "gc frozen",
         "timer_slack": lambda i: f"timer slack {i['requested']}",
+        "cpu_dma_latency": lambda i: "cpu_dma_latency 0",
     }
     done = [short.get(i["name"], lambda i: i["name"])(i) for i in items if i["ok"]]
     _say(

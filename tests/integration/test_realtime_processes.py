@@ -129,11 +129,14 @@ def test_as_root_everything_requested_takes_effect() -> None:
 
     assert [i for i in applied.values() if not i["ok"]] == []
     assert out["failures"] is None
-    expected = ["timer_slack", "heap_prefault", "stack_prefault", "mlockall", "scheduler"]
+    expected = [
+        "timer_slack", "heap_prefault", "stack_prefault", "mlockall", "scheduler", "cpu_dma_latency"
+    ]
     if pin:
         expected.insert(1, "cpu_affinity")
     assert list(applied) == expected
-    assert out["lines"][-1] == "scheduler: SCHED_FIFO priority 80: applied"
+    assert out["lines"][-2] == "scheduler: SCHED_FIFO priority 80: applied"
+    assert out["lines"][-1] == "cpu_dma_latency: 0 µs: applied"
 
     assert back["scheduler"] == os.SCHED_FIFO and back["priority"] == 80
     assert (report["scheduler"], report["priority"]) == ("SCHED_FIFO", 80)
@@ -229,6 +232,7 @@ def test_simulated_applies_nothing() -> None:
         "stack_prefault",
         "mlockall",
         "scheduler",
+        "cpu_dma_latency",
     }
     for item in applied.values():
         assert (item["ok"], item["detail"]) == (False, "simulated clock (--sim)")
