@@ -492,7 +492,7 @@ def _ring_shape(capacity: int, record_size: int) -> tuple[int, int]:
 _MAILBOX_MAGIC = int.from_bytes(b"rtcfMBX1", "little")
 _M_MAGIC, _M_SIZE = 0, 1
 _M_LATEST, _M_VERSION = 8, 9
-_M_SEQ, _M_LENGTH = 0, 1
+_M_SEQ, _M_LENGTH, _M_STAMP = 0, 1, 2  # _M_STAMP: the write count of the value held
 _MAILBOX_HEADER = 2 * _CACHE_LINE
 
 
@@ -506,13 +506,19 @@ class Mailbox:
     Two buffers: the writer fills the one the reader is not on, then publishes it,
     so the reader almost never finds the value mid-write; when it does (the writer
     wrote twice during one read), the sequence word tells, and the reader keeps its
-    previous value instead of waiting.
+    previous value instead of waiting. Each value carries its write count, so a
+    reader that followed a 'latest' word read just before the writer flipped it
+    never returns a value older than one it already returned (found by the
+    million-write test between processes).
     """
 
-    __slots__ = ("_ctl", "_meta", "_payload", "size")
+    __slots__ = ("_ctl", "_meta", "_newest", "_payload", "size")
 
     def __init__(self, view: memoryview, size: int) -> None:
         self.size = size
+        # the stamp of the newest value this reader returned: a reader that followed a
+        # stale 'latest' to the other buffer must not go back to an older value
+        self._newest = 0
         stride = _mailbox_stride(size)
         starts = (_MAILBOX_HEADER, _MAILBOX_HEADER + stride)
         self._ctl = view[:_MAILBOX_HEADER].cast("q")
@@ -603,15 +609,18 @@ class Mailbox:
         meta[_M_SEQ] = seq + 1  # odd: being written
         self._payload[b][:n] = data
         meta[_M_LENGTH] = n
+        version = ctl[_M_VERSION] + 1
+        meta[_M_STAMP] = version
         meta[_M_SEQ] = seq + 2  # even: complete
         ctl[_M_LATEST] = b
-        ctl[_M_VERSION] += 1
+        ctl[_M_VERSION] = version
 
     def try_read_into(self, out: WriteableBuffer) -> int:
         """One attempt to copy the latest value into ``out``; never waits.
 
         Returns the payload length, -1 if never written, or -2 if the value changed
-        during the copy (keep the previous value and try again next time).
+        during the copy (keep the previous value and try again next time; ``out``
+        may then hold a partial copy).
         """
         b = self._ctl[_M_LATEST]
         meta = self._meta[b]
@@ -620,6 +629,9 @@ class Mailbox:
             return -2
         if not seq:
             return -1
+        stamp = meta[_M_STAMP]
+        if stamp < self._newest:  # older than what this reader already returned
+            return -2
         n = meta[_M_LENGTH]
         payload = self._payload[b]
         if n != self.size:
@@ -637,6 +649,7 @@ class Mailbox:
                 flat[:n] = payload
         if meta[_M_SEQ] != seq:
             return -2
+        self._newest = stamp
         return n
 
     @staticmethod

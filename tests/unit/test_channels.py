@@ -398,3 +398,24 @@ def test_refused_open_leaves_no_view_behind(segment: Segment) -> None:
         Ring.create(segment.buf, 1024, 64)
     segment.close()  # nothing still exports the mapping
     assert segment.closed
+
+
+def test_mailbox_reader_never_goes_back_to_an_older_value() -> None:
+    from rtcf._channels import _M_LATEST
+
+    buf = bytearray(Mailbox.nbytes(8))
+    box = Mailbox.create(buf, 8)
+    out = bytearray(8)
+    box.write((1).to_bytes(8, "little"))
+    box.write((2).to_bytes(8, "little"))
+    assert box.try_read_into(out) == 8 and int.from_bytes(out, "little") == 2
+    # a 'latest' word loaded a moment too early points at the buffer of value 1
+    ctl = memoryview(buf).cast("q")
+    ctl[_M_LATEST] = 1 - ctl[_M_LATEST]
+    assert box.try_read_into(out) == -2  # keep 2; never hand out 1 after 2
+    assert int.from_bytes(out, "little") == 2
+    ctl[_M_LATEST] = 1 - ctl[_M_LATEST]
+    box.write((3).to_bytes(8, "little"))
+    assert box.try_read_into(out) == 8 and int.from_bytes(out, "little") == 3
+    ctl.release()
+    box.close()
