@@ -22,6 +22,7 @@ from typing import Any
 
 from ._channels import Mailbox, Ring
 from ._errors import RtcfError
+from ._log import LogRecord
 from ._port_channels import MappedPort, read_record
 
 QOS_DEPTH = 10
@@ -109,6 +110,9 @@ class Ros2Bridge:
         self.node = Node(name, namespace=namespace, context=self.context)
         self.executor = SingleThreadedExecutor(context=self.context)
         self.executor.add_node(self.node)
+        self._rosout = self.node.create_publisher(
+            _log_class(), "/rosout", _rosout_qos()
+        )
         self._lock = threading.Lock()
         self._outputs: list[tuple[Ring, Any, Callable[[bytes], Any]]] = []
         self._subscriptions: list[Any] = []
@@ -161,6 +165,18 @@ class Ros2Bridge:
 
         return on_message
 
+    def log(self, rec: LogRecord) -> None:
+        """Publish a component's log record on /rosout (rqt_console shows it)."""
+        from rcl_interfaces.msg import Log
+
+        msg = Log()
+        msg.stamp = self.node.get_clock().now().to_msg()
+        msg.level = min(max(int(rec.level), 10), 50)  # the numbers of ROS 2's levels
+        msg.name = ros_logger_name(rec.logger)
+        msg.msg = rec.format()
+        msg.function = "update" if rec.iteration >= 0 else ""
+        self._rosout.publish(msg)
+
     def close_run(self) -> None:
         """Publish what is left, then let go of the run's channels."""
         with self._lock:
@@ -202,6 +218,28 @@ class Ros2Bridge:
         self.executor.shutdown()
         self.node.destroy_node()
         self._rclpy.shutdown(context=self.context)
+
+
+def ros_logger_name(component: str) -> str:
+    """ROS 2's logger name of a node: '/rtcf/sum1' -> 'rtcf.sum1'."""
+    return ".".join(p for p in component.split("/") if p)
+
+
+def _log_class() -> type:
+    from rcl_interfaces.msg import Log
+
+    return Log
+
+
+def _rosout_qos() -> Any:
+    """What rcl uses for /rosout: reliable, transient local, depth 1000."""
+    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+
+    return QoSProfile(
+        depth=1000,
+        reliability=ReliabilityPolicy.RELIABLE,
+        durability=DurabilityPolicy.TRANSIENT_LOCAL,
+    )
 
 
 def _no_signals(rclpy: Any) -> Any:

@@ -78,7 +78,8 @@ class WorkerRunner:
         self.parameters = parameters if parameters is not None else ParameterStore()
         self.simulated = simulated
         self.log_level = log_level
-        self.log_sink = log_sink or PythonLoggingSink()
+        console = log_sink or PythonLoggingSink()
+        self.log_sink = console if bridge is None else _both(console, bridge.log)
         self.log_capacity = log_capacity
         self.on_status = on_status
         self.on_started = on_started
@@ -391,7 +392,19 @@ class Bridge(Protocol):
 
     def close_run(self) -> None: ...
 
+    def log(self, rec: LogRecord) -> None: ...
+
     def shutdown(self) -> None: ...
+
+
+def _both(
+    first: Callable[[LogRecord], None], second: Callable[[LogRecord], None]
+) -> Callable[[LogRecord], None]:
+    def sink(rec: LogRecord) -> None:
+        first(rec)
+        second(rec)
+
+    return sink
 
 
 def _note(level: int, text: str) -> LogRecord:

@@ -70,7 +70,7 @@ class Logging(rtcf.Component):
 
     def configure(self) -> None:
         for level in ("debug", "info", "warning", "error", "fatal"):
-            getattr(self.log, level)("Test non-RT %s with number %d", level, 12345)
+            getattr(self.log.nonrt, level)("Test non-RT %s with number %d", level, 12345)
 
     def update(self) -> None:
         self.log.debug("Test RT debug at iteration %d", self.iteration)

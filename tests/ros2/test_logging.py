@@ -1,0 +1,35 @@
+"""Component log records reach /rosout under the component's logger name."""
+
+import pytest
+from rcl_interfaces.msg import Log
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+
+from .conftest import start_rtcf
+from .test_topics import spin_until
+
+pytestmark = pytest.mark.integration
+
+
+def test_component_logs_reach_rosout_with_name_and_severity(ros_node):
+    records = []
+    qos = QoSProfile(
+        depth=1000,
+        reliability=ReliabilityPolicy.RELIABLE,
+        durability=DurabilityPolicy.TRANSIENT_LOCAL,  # also what was sent before we joined
+    )
+    ros_node.create_subscription(Log, "/rosout", records.append, qos)
+    proc = start_rtcf(
+        "launch", "rtcf_examples", "logging.launch", "--middleware", "ros2", "--duration", "2"
+    )
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 0, err
+    mine = lambda: [r for r in records if r.name == "loggin_test"]  # noqa: E731
+    assert spin_until(ros_node, lambda: len(mine()) >= 12, timeout=10), [
+        (r.name, r.msg) for r in records
+    ]
+    seen = {(r.level, r.msg) for r in mine()}
+    for level, word in ((20, "info"), (30, "warning"), (40, "error"), (50, "fatal")):
+        assert (level, f"Test RT {word} at iteration 0") in seen
+        assert (level, f"Test RT {word} at iteration 1") in seen
+        assert (level, f"Test non-RT {word} with number 12345") in seen
+    assert not any(r.level == 10 for r in mine())  # debug is filtered (--log-level info)
