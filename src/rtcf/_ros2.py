@@ -18,11 +18,15 @@ import importlib
 import struct
 import threading
 from collections.abc import Callable
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ._channels import Mailbox, Ring
 from ._errors import RtcfError
 from ._log import LogRecord
+from ._timing import TimingAggregate
+
+if TYPE_CHECKING:
+    from ._supervisor import LiveStatus
 from ._port_channels import MappedPort, read_record
 
 QOS_DEPTH = 10
@@ -113,6 +117,9 @@ class Ros2Bridge:
         self._rosout = self.node.create_publisher(
             _log_class(), "/rosout", _rosout_qos()
         )
+        from diagnostic_msgs.msg import DiagnosticArray
+
+        self._diagnostics = self.node.create_publisher(DiagnosticArray, "/diagnostics", 10)
         self._lock = threading.Lock()
         self._outputs: list[tuple[Ring, Any, Callable[[bytes], Any]]] = []
         self._subscriptions: list[Any] = []
@@ -176,6 +183,45 @@ class Ros2Bridge:
         msg.msg = rec.format()
         msg.function = "update" if rec.iteration >= 0 else ""
         self._rosout.publish(msg)
+
+    def diagnostics(self, runner: str, status: LiveStatus, aggregate: TimingAggregate) -> None:
+        """A timing and health summary on /diagnostics (rqt_runtime_monitor shows it)."""
+        from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+
+        def kv(key: str, value: float | int) -> KeyValue:
+            text = f"{value:.1f}" if isinstance(value, float) else str(value)
+            return KeyValue(key=key, value=text)
+
+        summary = aggregate.summary()
+        values = [
+            kv("iterations", status.iterations),
+            kv("overruns", status.overruns),
+            kv("log records dropped", status.log_records_dropped),
+            kv("timing rows dropped", aggregate.dropped),
+        ]
+        for label, stats in (("jitter", summary.jitter_us), ("calc", summary.calc_us)):
+            for q in ("p50", "p99", "p999", "max"):
+                if q in stats:
+                    values.append(kv(f"{label} {q} [us]", stats[q]))
+        for name, stats in summary.components_us.items():
+            if "p999" in stats:
+                values.append(kv(f"{name} calc p999 [us]", stats["p999"]))
+                values.append(kv(f"{name} calc max [us]", stats["max"]))
+        trouble = status.overruns or status.log_records_dropped or aggregate.dropped
+        st = DiagnosticStatus(
+            level=DiagnosticStatus.WARN if trouble else DiagnosticStatus.OK,
+            name=f"rtcf: {runner}",
+            message=(
+                f"{status.iterations} iterations, {status.overruns} overruns, "
+                f"jitter p99.9 {status.jitter_p999_us:.1f} us, "
+                f"calc p99.9 {status.calc_p999_us:.1f} us"
+            ),
+            hardware_id=self.node.get_fully_qualified_name(),
+            values=values,
+        )
+        array = DiagnosticArray(status=[st])
+        array.header.stamp = self.node.get_clock().now().to_msg()
+        self._diagnostics.publish(array)
 
     def close_run(self) -> None:
         """Publish what is left, then let go of the run's channels."""

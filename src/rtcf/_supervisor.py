@@ -37,6 +37,7 @@ from ._worker import CTL_STOP, CTL_WORDS, error_from_dict
 
 POLL_S = 0.01  # how often the supervisor drains while it waits for the worker
 STATUS_EVERY_S = 0.5
+DIAGNOSTICS_EVERY_S = 1.0
 
 
 class WorkerDied(RtcfError):
@@ -150,7 +151,7 @@ class WorkerRunner:
             conn.send((command, args))
         except (BrokenPipeError, ConnectionResetError, OSError):
             raise self._died(f"while sending {command!r}") from None
-        last_status = time.monotonic()
+        last_status = last_diagnostics = time.monotonic()
         while True:
             try:
                 ready = conn.poll(POLL_S)
@@ -162,6 +163,11 @@ class WorkerRunner:
                 if now - last_status >= STATUS_EVERY_S:
                     last_status = now
                     self.on_status(self.live_status())
+            if self.bridge is not None and self._timing is not None:
+                now = time.monotonic()
+                if now - last_diagnostics >= DIAGNOSTICS_EVERY_S:
+                    last_diagnostics = now
+                    self.bridge.diagnostics(self.name, self.live_status(), self._timing[2])
             if not ready:
                 if self.process is not None and self.process.poll() is not None:
                     raise self._died(f"during {command!r}")
@@ -393,6 +399,10 @@ class Bridge(Protocol):
     def close_run(self) -> None: ...
 
     def log(self, rec: LogRecord) -> None: ...
+
+    def diagnostics(
+        self, runner: str, status: LiveStatus, aggregate: TimingAggregate
+    ) -> None: ...
 
     def shutdown(self) -> None: ...
 

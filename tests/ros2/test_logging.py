@@ -33,3 +33,35 @@ def test_component_logs_reach_rosout_with_name_and_severity(ros_node):
         assert (level, f"Test RT {word} at iteration 1") in seen
         assert (level, f"Test non-RT {word} with number 12345") in seen
     assert not any(r.level == 10 for r in mine())  # debug is filtered (--log-level info)
+
+
+def test_timing_summary_on_diagnostics(ros_node):
+    from diagnostic_msgs.msg import DiagnosticArray
+
+    arrays = []
+    ros_node.create_subscription(DiagnosticArray, "/diagnostics", arrays.append, 10)
+    proc = start_rtcf(
+        "launch",
+        "rtcf_examples",
+        "paper_evaluation.launch",
+        "--middleware",
+        "ros2",
+        "--duration",
+        "4",
+    )
+    try:
+        assert spin_until(ros_node, lambda: len(arrays) >= 2, timeout=30)
+    finally:
+        _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 0, err
+    status = arrays[-1].status[0]
+    assert status.name == "rtcf: /rt_runner"
+    values = {kv.key: kv.value for kv in status.values}
+    assert int(values["iterations"]) > 0
+    assert float(values["calc p999 [us]"]) > 0
+    assert "/H1 calc p999 [us]" in values and "/R3 calc max [us]" in values
+    assert "iterations" in status.message and "overruns" in status.message
+    # the count grows from one summary to the next
+    assert int({kv.key: kv.value for kv in arrays[0].status[0].values}["iterations"]) < int(
+        values["iterations"]
+    )
