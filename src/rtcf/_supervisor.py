@@ -366,16 +366,22 @@ class WorkerRunner:
             self.bridge.shutdown()
             self.bridge = None
         proc = self.process
+        if self.conn is not None:
+            # end of file on its control channel: the worker cleans up its components
+            # and leaves (a loop still running is stopped first)
+            self.request_stop()
+            self.conn.close()
+            self.conn = None
         if proc is not None and proc.poll() is None:
-            proc.terminate()  # the worker's SIGTERM handler ends the loop gracefully
             try:
                 proc.wait(timeout=5.0)
             except subprocess.TimeoutExpired:
-                proc.kill()
-                proc.wait()
-        if self.conn is not None:
-            self.conn.close()
-            self.conn = None
+                proc.terminate()
+                try:
+                    proc.wait(timeout=2.0)
+                except subprocess.TimeoutExpired:
+                    proc.kill()
+                    proc.wait()
         if self._ctl is not None:
             self._ctl.release()
             self._ctl = None

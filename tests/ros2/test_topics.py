@@ -122,3 +122,30 @@ def test_message_typed_ports_cross_as_serialized_bytes(ros_node, tmp_path):
         if proc.poll() is None:
             _, err = stop(proc)
             assert "error" not in err.lower(), err
+
+
+def test_a_port_type_that_cannot_cross_is_a_clear_error(tmp_path):
+    path = tmp_path / "bad.launch"
+    path.write_text(
+        textwrap.dedent(
+            """\
+            <launch>
+              <node name="rt_runner" pkg="rtcf" type="rt_runner">
+                <param name="mode" value="no_wait"/>
+                <param name="frequency" value="100.0"/>
+                <param name="ros_mapping_whitelist" value="/ros/.*"/>
+              </node>
+              <node name="d" pkg="rtcf" type="rt_launcher" args="rtcf_ros2_components DictOut">
+                <remap from="out" to="/ros/d"/>
+              </node>
+            </launch>
+            """
+        )
+    )
+    proc = start_rtcf("launch", path, "--middleware", "ros2", "--duration", "1")
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode == 1
+    lines = [ln for ln in err.splitlines() if ln.startswith("rtcf: error:")]
+    assert len(lines) == 1, err
+    assert "/d.out" in lines[0] and "/ros/d" in lines[0] and "dict" in lines[0]
+    assert "Traceback" not in err
