@@ -249,7 +249,8 @@ def cmd_launch(ns: argparse.Namespace) -> int:
         if iterations is None:
             _say("running until Ctrl-C")
         else:
-            _say(f"running {iterations} iterations ({'simulated' if ns.sim else 'real'} time)")
+            kind = "simulated" if ns.sim else "/clock" if settings.use_sim_time else "real"
+            _say(f"running {iterations} iterations ({kind} time)")
         started = time.perf_counter()
         try:
             result = runner.run(iterations, trace=ns.trace)

@@ -14,7 +14,7 @@ import ctypes.util
 import errno
 import time
 from collections.abc import Callable
-from typing import Protocol
+from typing import Any, Protocol
 
 CLOCK_MONOTONIC = time.CLOCK_MONOTONIC
 TIMER_ABSTIME = 1
@@ -97,6 +97,49 @@ class MonotonicClock:
         rc = fn(CLOCK_MONOTONIC, TIMER_ABSTIME, self._ts_ptr, None)
         if rc not in (0, errno.EINTR):
             raise OSError(rc, "clock_nanosleep failed")
+
+
+class MiddlewareClock:
+    """Time from the middleware's /clock (``use_sim_time``), as the worker sees it.
+
+    The supervisor writes every /clock message (int64 nanoseconds) into a mailbox;
+    ``now_ns`` is the newest. ``sleep_until_ns`` polls it every ``poll_ns`` of
+    real time until it reaches the deadline, so the loop runs one iteration per
+    period of /clock time. Before the first message ``now_ns`` waits for one.
+    When /clock stops, the loop waits; when it jumps forward, the wait policy
+    decides (absolute: the missed iterations run back to back; relative: the grid
+    moves); when it goes back, the loop waits until /clock reaches the next
+    deadline again. Either wait ends at once when ``stop`` (an int64 cell) is set.
+    """
+
+    simulated = True  # calculation and jitter in /clock time are not measurements
+
+    def __init__(self, mailbox: Any, stop: Any, *, poll_ns: int = 200_000) -> None:
+        self._box = mailbox
+        self._stop = stop
+        self._buf = bytearray(8)
+        self._now = 0
+        self._seen = False
+        self._poll = poll_ns * 1e-9
+
+    def _update(self) -> None:
+        n = self._box.try_read_into(self._buf)
+        if n == 8:
+            self._now = int.from_bytes(self._buf, "little", signed=True)
+            self._seen = True
+
+    def now_ns(self) -> int:
+        self._update()
+        while not self._seen and not self._stop[0]:
+            time.sleep(0.001)
+            self._update()
+        return self._now
+
+    def sleep_until_ns(self, deadline_ns: int) -> None:
+        self._update()
+        while self._now < deadline_ns and not self._stop[0]:
+            time.sleep(self._poll)
+            self._update()
 
 
 class SimClock:

@@ -223,6 +223,24 @@ class Ros2Bridge:
         array.header.stamp = self.node.get_clock().now().to_msg()
         self._diagnostics.publish(array)
 
+    def follow_clock(self, box: Mailbox) -> None:
+        """use_sim_time: copy every /clock message (as int64 ns) into ``box``."""
+        from rclpy.qos import QoSProfile, ReliabilityPolicy
+        from rosgraph_msgs.msg import Clock
+
+        def on_clock(msg: Any) -> None:
+            ns = msg.clock.sec * 1_000_000_000 + msg.clock.nanosec
+            box.write(ns.to_bytes(8, "little", signed=True))
+
+        with self._lock:
+            self._clock_sub = self.node.create_subscription(
+                Clock,
+                "/clock",
+                on_clock,
+                # what rclpy's own time source uses: best effort reaches every publisher
+                QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT),
+            )
+
     def close_run(self) -> None:
         """Publish what is left, then let go of the run's channels."""
         with self._lock:

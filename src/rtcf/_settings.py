@@ -40,6 +40,7 @@ class RunnerSettings:
     safe_stack_size_kB: int = 0
     cpu_affinity_mask: int = 0  # 0: leave the affinity as it is
     priority: int = 80
+    use_sim_time: bool = False  # the loop follows the middleware's /clock
     notes: list[str] = field(default_factory=list, compare=False)
 
     def __post_init__(self) -> None:
@@ -162,6 +163,7 @@ _CONVERTERS = {
     "safe_stack_size_kB": _to_int,
     "cpu_affinity_mask": _to_int,
     "priority": _to_int,
+    "use_sim_time": _to_bool,
 }
 _EXPECTED = {
     "mode": "a string",
@@ -175,6 +177,7 @@ _EXPECTED = {
     "safe_stack_size_kB": "an integer",
     "cpu_affinity_mask": "an integer bit mask",
     "priority": "an integer",
+    "use_sim_time": "true or false",
 }
 # parameters a runner node may carry that are not settings
-_IGNORED = {"use_sim_time"}
+_IGNORED: set[str] = set()

@@ -33,7 +33,7 @@ from ._port_channels import OUTPUT_RING_RECORDS, MappedPort, segment_size
 from ._runner import ComponentSpec, RunResult
 from ._settings import RunnerSettings
 from ._timing import TimingAggregate, TimingSummary, ring_capacity, row_size
-from ._worker import CTL_STOP, CTL_WORDS, error_from_dict
+from ._worker import CLOCK_MAILBOX_OFFSET, CTL_STOP, error_from_dict
 
 POLL_S = 0.01  # how often the supervisor drains while it waits for the worker
 STATUS_EVERY_S = 0.5
@@ -91,15 +91,26 @@ class WorkerRunner:
         self._control: Segment | None = None
         self._ctl: memoryview | None = None
         self._log_ring: Ring | None = None
+        self._clock_box: Mailbox | None = None
         self._timing: tuple[Ring, list[str], TimingAggregate] | None = None
         self._events: dict[str, Any] = {}
         self.exit_reported = False
 
     # -- process ---------------------------------------------------------------
     def start(self) -> WorkerRunner:
-        control = self._segment(8 * CTL_WORDS)
+        control = self._segment(CLOCK_MAILBOX_OFFSET + Mailbox.nbytes(8))
         self._control = control
-        self._ctl = control.buf.cast("q")
+        self._ctl = control.buf[:CLOCK_MAILBOX_OFFSET].cast("q")
+        if self.settings.use_sim_time:
+            if self.bridge is None:
+                raise RtcfError(
+                    f"runner {self.name!r}: use_sim_time needs a middleware that publishes "
+                    "/clock; run with --middleware ros2"
+                )
+            clock_view = control.buf[CLOCK_MAILBOX_OFFSET:]
+            self._clock_box = Mailbox.create(clock_view, 8)
+            clock_view.release()
+            self.bridge.follow_clock(self._clock_box)
         log = self._segment(Ring.nbytes(self.log_capacity, LOG_RECORD_SIZE))
         self._log_ring = Ring.create(log.buf, self.log_capacity, LOG_RECORD_SIZE)
         ours, theirs = socket.socketpair(socket.AF_UNIX, socket.SOCK_STREAM)
@@ -388,6 +399,9 @@ class WorkerRunner:
         if self._log_ring is not None:
             self._log_ring.close()
             self._log_ring = None
+        if self._clock_box is not None:
+            self._clock_box.close()
+            self._clock_box = None
         for seg in list(self._segments):
             self._close_segment(seg)
 
@@ -405,6 +419,8 @@ class Bridge(Protocol):
     def close_run(self) -> None: ...
 
     def log(self, rec: LogRecord) -> None: ...
+
+    def follow_clock(self, box: Mailbox) -> None: ...
 
     def diagnostics(
         self, runner: str, status: LiveStatus, aggregate: TimingAggregate

@@ -25,8 +25,8 @@ from multiprocessing.connection import Connection
 from types import FrameType
 from typing import Any
 
-from ._channels import Ring, Segment
-from ._clock import MonotonicClock, SimClock
+from ._channels import Mailbox, Ring, Segment
+from ._clock import Clock, MiddlewareClock, MonotonicClock, SimClock
 from ._errors import ComponentError, ConfigurationError, GraphError, LaunchError, RtcfError
 from ._executor import STOP, StopFlag
 from ._log import LogWriter
@@ -41,6 +41,7 @@ from ._trace import Trace
 CTL_STOP = 0  # non-zero: the loop ends after the current iteration (the supervisor writes it)
 CTL_ITERATION = 1  # the last iteration the worker finished a run at (informative)
 CTL_WORDS = 8
+CLOCK_MAILBOX_OFFSET = 8 * CTL_WORDS  # the /clock mailbox follows the control words
 
 _ERRORS: dict[str, type[RtcfError]] = {
     cls.__name__: cls
@@ -81,6 +82,7 @@ class Worker:
         self.runner: Runner | None = None
         self.segments: list[Segment] = []
         self.log_writer: LogWriter | None = None
+        self.clock_box: Mailbox | None = None
         self.stop: StopFlag | None = None
         self.settings = RunnerSettings()
         self.simulated = False
@@ -157,9 +159,19 @@ class Worker:
         def emit(level: int, logger: str, text: str, iteration: int, time_ns: int) -> None:
             writer.push_waiting(level, logger, text, iteration, time_ns, timeout_s=5.0)
 
+        clock: Clock
+        if simulated:
+            clock = SimClock()
+        elif settings.use_sim_time:
+            view = control_seg.buf[CLOCK_MAILBOX_OFFSET:]
+            self.clock_box = Mailbox.open(view)
+            view.release()
+            clock = MiddlewareClock(self.clock_box, self.stop.cell)
+        else:
+            clock = MonotonicClock()
         self.runner = Runner(
             settings,
-            clock=SimClock() if simulated else MonotonicClock(),
+            clock=clock,
             parameters=store,
             name=name,
             log_level=log_level,
@@ -265,6 +277,8 @@ class Worker:
     def close(self) -> None:
         if self.log_writer is not None:
             self.log_writer.release()
+        if self.clock_box is not None:
+            self.clock_box.close()
         if self.stop is not None:
             cell = self.stop.cell
             if isinstance(cell, memoryview):

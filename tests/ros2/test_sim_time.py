@@ -1,0 +1,69 @@
+"""use_sim_time: /clock drives the loop, one iteration per period of /clock time."""
+
+import textwrap
+import time
+
+import pytest
+from builtin_interfaces.msg import Time
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+from rosgraph_msgs.msg import Clock
+from std_msgs.msg import Float64, Int64
+
+from .conftest import start_rtcf
+from .test_topics import spin_until, stop, wait_running
+
+pytestmark = pytest.mark.integration
+
+LAUNCH = """\
+<launch>
+  <node name="rt_runner" pkg="rtcf" type="rt_runner">
+    <param name="mode" value="no_wait"/>
+    <param name="frequency" value="10.0"/>
+    <param name="use_sim_time" value="true"/>
+    <param name="ros_mapping_whitelist" value="/ros/.*"/>
+  </node>
+  <node name="echo" pkg="rtcf" type="rt_launcher" args="rtcf_ros2_components TimeEcho">
+    <remap from="iteration" to="/ros/iteration"/>
+    <remap from="time" to="/ros/time"/>
+  </node>
+</launch>
+"""
+
+
+def clock_msg(ns):
+    return Clock(clock=Time(sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000))
+
+
+def test_clock_steps_the_loop_and_the_loop_waits_when_it_stops(ros_node, tmp_path):
+    path = tmp_path / "sim.launch"
+    path.write_text(textwrap.dedent(LAUNCH))
+    iterations, times = [], []
+    ros_node.create_subscription(Int64, "/ros/iteration", lambda m: iterations.append(m.data), 100)
+    ros_node.create_subscription(Float64, "/ros/time", lambda m: times.append(m.data), 100)
+    pub = ros_node.create_publisher(
+        Clock, "/clock", QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT)
+    )
+    proc = start_rtcf("launch", path, "--middleware", "ros2")
+    try:
+        wait_running(proc)
+        assert spin_until(ros_node, lambda: ros_node.count_subscribers("/clock") > 0)
+        assert spin_until(ros_node, lambda: ros_node.count_publishers("/ros/iteration") > 0)
+        assert iterations == []  # nothing runs before the first /clock
+        start = 100 * 10**9
+        # 1 s of /clock time in steps of 50 ms: ten periods at 10 Hz
+        for k in range(21):
+            pub.publish(clock_msg(start + k * 50_000_000))
+            spin_until(ros_node, lambda: False, timeout=0.05)
+        assert spin_until(ros_node, lambda: bool(iterations) and iterations[-1] == 10)
+        assert iterations == list(range(11))
+        assert times == pytest.approx([i * 0.1 for i in range(11)])
+        # /clock stops: so does the loop
+        spin_until(ros_node, lambda: False, timeout=1.0)
+        assert iterations[-1] == 10
+        # one more period of /clock time: one more iteration
+        pub.publish(clock_msg(start + 1_100_000_000))
+        assert spin_until(ros_node, lambda: iterations[-1] == 11)
+        time.sleep(0.2)
+    finally:
+        _, err = stop(proc)
+    assert "error" not in err.lower(), err
