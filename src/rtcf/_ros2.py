@@ -103,15 +103,28 @@ def _from_message(kind: str, msg: Any) -> bytes:
 class Ros2Bridge:
     """A ROS 2 node for one runner; its thread moves messages between ROS and channels."""
 
-    def __init__(self, name: str, namespace: str = "/", args: list[str] | None = None) -> None:
+    def __init__(
+        self,
+        name: str = "rt_runner",
+        namespace: str = "/",
+        args: list[str] | None = None,
+        *,
+        node: Any = None,
+    ) -> None:
+        """Make a node of the runner's name, or use ``node`` (an rt_runner's own)."""
         rclpy = _import_rclpy()
         from rclpy.executors import SingleThreadedExecutor
         from rclpy.node import Node
 
         self._rclpy = rclpy
-        self.context = rclpy.Context()
-        rclpy.init(args=args, context=self.context, signal_handler_options=_no_signals(rclpy))
-        self.node = Node(name, namespace=namespace, context=self.context)
+        self._owns_context = node is None
+        if node is None:
+            self.context = rclpy.Context()
+            rclpy.init(args=args, context=self.context, signal_handler_options=_no_signals(rclpy))
+            node = Node(name, namespace=namespace, context=self.context)
+        else:
+            self.context = node.context
+        self.node = node
         self.executor = SingleThreadedExecutor(context=self.context)
         self.executor.add_node(self.node)
         self._rosout = self.node.create_publisher(
@@ -121,6 +134,7 @@ class Ros2Bridge:
 
         self._diagnostics = self.node.create_publisher(DiagnosticArray, "/diagnostics", 10)
         self._lock = threading.Lock()
+        self._open = False  # whether a run's channels are there
         self._outputs: list[tuple[Ring, Any, Callable[[bytes], Any]]] = []
         self._subscriptions: list[Any] = []
         self._publishers: list[Any] = []
@@ -133,6 +147,7 @@ class Ros2Bridge:
     # -- per run -------------------------------------------------------------------
     def open(self, ports: list[MappedPort], channels: dict[str, Ring | Mailbox]) -> None:
         with self._lock:
+            self._open = True
             for port in ports:
                 cls = message_class(port)
                 channel = channels[port.topic]
@@ -166,9 +181,10 @@ class Ros2Bridge:
 
         def on_message(msg: Any) -> None:
             payload = _from_message(kind, msg)
-            if len(payload) <= box.size:
-                box.write(payload)
-                received[topic] += 1
+            with self._lock:  # the run may have closed its channels meanwhile
+                if self._open and len(payload) <= box.size:
+                    box.write(payload)
+                    received[topic] += 1
 
         return on_message
 
@@ -244,6 +260,7 @@ class Ros2Bridge:
     def close_run(self) -> None:
         """Publish what is left, then let go of the run's channels."""
         with self._lock:
+            self._open = False
             self._drain()
             for pub in self._publishers:
                 self.node.destroy_publisher(pub)
@@ -255,14 +272,16 @@ class Ros2Bridge:
 
     # -- the bridge thread -------------------------------------------------------
     def _spin(self) -> None:
+        # the lock guards the run's channels only: a service callback may wait in
+        # spin_once for the main thread, which needs the lock to close the run
         while self._running:
+            try:
+                self.executor.spin_once(timeout_sec=SPIN_TIMEOUT_S)
+            except Exception:  # shutting down
+                if not self._running:
+                    return
+                raise
             with self._lock:
-                try:
-                    self.executor.spin_once(timeout_sec=SPIN_TIMEOUT_S)
-                except Exception:  # shutting down
-                    if not self._running:
-                        return
-                    raise
                 self._drain()
 
     def _drain(self) -> None:
@@ -281,7 +300,8 @@ class Ros2Bridge:
         self._thread.join(timeout=5.0)
         self.executor.shutdown()
         self.node.destroy_node()
-        self._rclpy.shutdown(context=self.context)
+        if self._owns_context:
+            self._rclpy.shutdown(context=self.context)
 
 
 def ros_logger_name(component: str) -> str:

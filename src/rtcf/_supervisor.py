@@ -26,7 +26,7 @@ from typing import Any, Protocol
 
 from ._channels import Mailbox, Ring, Segment
 from ._errors import RtcfError
-from ._executor import STOP
+from ._executor import CONTROL, STOP
 from ._log import LOG_RECORD_SIZE, LogRecord, PythonLoggingSink, drain_channel
 from ._params import ParameterStore
 from ._port_channels import OUTPUT_RING_RECORDS, MappedPort, segment_size
@@ -278,6 +278,15 @@ class WorkerRunner:
         """End the loop after the current iteration (safe from a signal handler)."""
         if self._ctl is not None:
             self._ctl[CTL_STOP] = STOP
+
+    def request_control(self) -> None:
+        """End the loop after the iteration so a request can be served (it resumes after)."""
+        if self._ctl is not None and self._ctl[CTL_STOP] != STOP:
+            self._ctl[CTL_STOP] = CONTROL
+
+    @property
+    def stop_reason(self) -> int:
+        return self._ctl[CTL_STOP] if self._ctl is not None else 0
 
     def clear_stop(self) -> None:
         """Forget a stop request (the next run runs); a stop asked for earlier sticks."""

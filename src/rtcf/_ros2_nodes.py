@@ -1,0 +1,386 @@
+"""``rt_runner`` and ``rt_launcher`` as ROS 2 executables (what ``ros2 run`` would start).
+
+``rt_runner --ros-args -r __node:=NAME -r __ns:=/NS -p frequency:=1000.0 ...`` is a
+ROS 2 node whose parameters are the runner's settings. It serves, under its own
+name (so several runners share a graph):
+
+* ``~/load_component`` and ``~/unload_component``, typed
+  ``rcl_interfaces/srv/SetParametersAtomically``: a request is a list of
+  parameters (``module``, ``class``, ``name``, ``namespace``, ``remaps`` as
+  ``from:=to`` strings, ``is_first``, ``topics_ignore_for_graph``, ``launcher``,
+  and ``param.<name>`` for each component parameter); the answer says
+  ``successful`` and, when refused, the ``reason``. Standard types, so no
+  interface package has to be built.
+* ``~/activate_rt_loop`` and ``~/deactivate_rt_loop`` (``std_srvs/srv/Trigger``)
+  for mode ``wait_for_trigger``.
+
+``rt_launcher MODULE CLASS [-f] --ros-args -r __node:=NAME -r from:=to -p k:=v``
+asks its runner (parameter ``runner``, default ``/rt_runner``) to load the class as
+a component named like the launcher node, stays alive, and asks for the unload
+when it is stopped. The runner unloads the components of launchers that vanish
+(killed with SIGKILL); a launcher whose runner vanishes exits with a message.
+"""
+
+from __future__ import annotations
+
+import queue
+import signal
+import sys
+import threading
+import time
+from collections.abc import Callable
+from types import FrameType
+from typing import Any
+
+from ._errors import RtcfError
+from ._executor import STOP
+from ._runner import ComponentSpec
+from ._settings import RunnerSettings
+
+WATCH_EVERY_S = 1.0
+_RESERVED = {"use_sim_time", "runner", "is_first", "topics_ignore_for_graph"}
+
+
+def _say(who: str, text: str) -> None:
+    print(f"{who}: {text}", file=sys.stderr, flush=True)
+
+
+def _node(default_name: str, argv: list[str]) -> tuple[Any, Any]:
+    import rclpy
+    from rclpy.node import Node
+    from rclpy.signals import SignalHandlerOptions
+
+    context = rclpy.Context()
+    rclpy.init(args=argv, context=context, signal_handler_options=SignalHandlerOptions.NO)
+    node = Node(
+        default_name,
+        context=context,
+        automatically_declare_parameters_from_overrides=True,
+        enable_logger_service=True,
+    )
+    return rclpy, node
+
+
+def _params(node: Any) -> dict[str, Any]:
+    return {name: p.value for name, p in node._parameters.items()}
+
+
+def _ros_remaps(argv: list[str]) -> list[tuple[str, str]]:
+    """The ``-r from:=to`` rules of --ros-args, without the special __node/__ns ones."""
+    out: list[tuple[str, str]] = []
+    inside = False
+    it = iter(argv)
+    for arg in it:
+        if arg == "--ros-args":
+            inside = True
+        elif arg == "--":
+            inside = False
+        elif inside and arg in ("-r", "--remap"):
+            rule = next(it, "")
+            src, _, dst = rule.partition(":=")
+            if src and dst and not src.startswith("__") and ":" not in src:
+                out.append((src, dst))
+    return out
+
+
+# -- the runner ------------------------------------------------------------------------
+
+
+class _Request:
+    def __init__(self, kind: str, payload: Any) -> None:
+        self.kind = kind
+        self.payload = payload
+        self.done = threading.Event()
+        self.ok = False
+        self.reason = ""
+
+
+def runner_main(argv: list[str] | None = None) -> int:
+    from rcl_interfaces.msg import SetParametersResult
+    from rcl_interfaces.srv import SetParametersAtomically
+    from std_srvs.srv import Trigger
+
+    from ._ros2 import Ros2Bridge
+    from ._supervisor import WorkerRunner
+
+    argv = list(sys.argv if argv is None else argv)
+    rclpy, node = _node("rt_runner", argv)
+    name = node.get_fully_qualified_name()
+    try:
+        settings = RunnerSettings.from_params(
+            {k: v for k, v in _params(node).items()}, where=f"rt_runner {name}"
+        )
+    except RtcfError as exc:
+        _say("rt_runner", f"error: {exc}")
+        return 1
+    requests: queue.Queue[_Request] = queue.Queue()
+    bridge = Ros2Bridge(node=node)
+    runner = WorkerRunner(settings, name=name, bridge=bridge)
+    launchers: dict[str, str] = {}  # component -> launcher node that asked for it
+
+    def submit(kind: str, payload: Any, timeout: float = 30.0) -> _Request:
+        req = _Request(kind, payload)
+        requests.put(req)
+        runner.request_control()
+        if not req.done.wait(timeout):
+            req.reason = "the runner did not answer in time"
+        return req
+
+    def on_load(request: Any, response: Any) -> Any:
+        req = submit("load", {p.name: _value(p.value) for p in request.parameters})
+        response.result = SetParametersResult(successful=req.ok, reason=req.reason)
+        return response
+
+    def on_unload(request: Any, response: Any) -> Any:
+        values = {p.name: _value(p.value) for p in request.parameters}
+        req = submit("unload", str(values.get("name", "")))
+        response.result = SetParametersResult(successful=req.ok, reason=req.reason)
+        return response
+
+    def trigger(kind: str) -> Callable[[Any, Any], Any]:
+        def on_trigger(request: Any, response: Any) -> Any:
+            req = submit(kind, None)
+            response.success, response.message = req.ok, req.reason
+            return response
+
+        return on_trigger
+
+    node.create_service(SetParametersAtomically, "~/load_component", on_load)
+    node.create_service(SetParametersAtomically, "~/unload_component", on_unload)
+    node.create_service(Trigger, "~/activate_rt_loop", trigger("activate"))
+    node.create_service(Trigger, "~/deactivate_rt_loop", trigger("deactivate"))
+
+    presence = _Presence()
+
+    def watch() -> None:  # a launcher killed with SIGKILL never asks for its unload
+        presence.update(node)
+        for component, launcher in list(launchers.items()):
+            if launcher and presence.gone(launcher):
+                launchers.pop(component, None)
+                requests.put(_Request("unload", component))
+                runner.request_control()
+
+    node.create_timer(WATCH_EVERY_S, watch)
+
+    def handler(signum: int, frame: FrameType | None) -> None:
+        runner.request_stop()
+
+    signal.signal(signal.SIGINT, handler)
+    signal.signal(signal.SIGTERM, handler)
+
+    def serve(req: _Request) -> None:
+        try:
+            if req.kind == "load":
+                spec, launcher = _spec(req.payload)
+                runner.load(spec)
+                launchers[spec.full_name] = launcher
+                _say(name, f"loaded {spec.full_name} ({spec.module}.{spec.class_name})")
+            elif req.kind == "unload":
+                full = req.payload if req.payload.startswith("/") else "/" + req.payload
+                runner.unload(full)
+                launchers.pop(full, None)
+                _say(name, f"unloaded {full}")
+            elif req.kind == "activate":
+                runner.activate()
+            elif req.kind == "deactivate":
+                runner.deactivate()
+            req.ok = True
+        except RtcfError as exc:
+            req.reason = str(exc)
+            _say(name, f"refused {req.kind}: {exc}")
+        except Exception as exc:  # a malformed request must not end the runner
+            req.reason = f"{type(exc).__name__}: {exc}"
+            _say(name, f"refused {req.kind}: {req.reason}")
+        finally:
+            req.done.set()
+
+    status = 0
+    try:
+        runner.start()
+        _say(name, f"ready: {settings.frequency:g} Hz, mode {settings.mode}")
+        while runner.stop_reason != STOP:
+            while True:
+                try:
+                    serve(requests.get_nowait())
+                except queue.Empty:
+                    break
+            if runner.stop_reason == STOP:
+                break
+            runner.clear_stop()
+            if runner.describe()["not_ready"] is None:
+                result = runner.run(None)
+                if runner.stop_reason == STOP:
+                    _say(name, f"stopped after {result.iterations} iterations")
+            else:
+                try:
+                    serve(requests.get(timeout=0.1))
+                except queue.Empty:
+                    pass
+    except RtcfError as exc:
+        _say(name, f"error: {exc}")
+        status = 1
+    finally:
+        for err in runner.shutdown() if runner.process is not None else []:
+            _say(name, f"error: {err}")
+            status = 1
+        runner.close()
+        rclpy.try_shutdown(context=node.context)
+    return status
+
+
+def _value(v: Any) -> Any:
+    """The Python value of an rcl_interfaces ParameterValue."""
+    from rclpy.parameter import parameter_value_to_python
+
+    return parameter_value_to_python(v)
+
+
+def _spec(values: dict[str, Any]) -> tuple[ComponentSpec, str]:
+    missing = [k for k in ("module", "class", "name") if not values.get(k)]
+    if missing:
+        raise RtcfError(
+            "a load request needs the parameters module, class and name; missing: "
+            + ", ".join(missing)
+        )
+    remaps = []
+    for rule in values.get("remaps") or []:
+        src, sep, dst = str(rule).partition(":=")
+        if not sep or not src or not dst:
+            raise RtcfError(f"remap {rule!r} is not of the form from:=to")
+        remaps.append((src, dst))
+    params = {k[len("param.") :]: v for k, v in values.items() if k.startswith("param.")}
+    spec = ComponentSpec(
+        name=str(values["name"]),
+        module=str(values["module"]),
+        class_name=str(values["class"]),
+        namespace=str(values.get("namespace") or "/"),
+        remaps=remaps,
+        params=params,
+        is_first=bool(values.get("is_first", False)),
+        topics_ignore_for_graph=str(values.get("topics_ignore_for_graph") or ""),
+    )
+    return spec, str(values.get("launcher") or "")
+
+
+# -- the launcher ------------------------------------------------------------------------
+
+
+def launcher_main(argv: list[str] | None = None) -> int:
+    from rcl_interfaces.msg import Parameter
+    from rcl_interfaces.srv import SetParametersAtomically
+    from rclpy.parameter import Parameter as PyParameter
+    from rclpy.utilities import remove_ros_args
+
+    argv = list(sys.argv if argv is None else argv)
+    words = remove_ros_args(argv)[1:]
+    is_first = any(w in ("-f", "--is_first") for w in words)
+    positional = [w for w in words if not w.startswith("-")]
+    rclpy, node = _node("rt_launcher", argv)
+    me = node.get_fully_qualified_name()
+    params = _params(node)
+    module = positional[0] if positional else str(params.get("rt_package") or "")
+    class_name = positional[1] if len(positional) > 1 else str(params.get("rt_type") or "")
+    if not module or not class_name:
+        _say(f"rt_launcher {me}", "error: give MODULE CLASS (or the rt_package/rt_type params)")
+        return 2
+    runner = str(params.get("runner") or "/rt_runner")
+    from rclpy.executors import SingleThreadedExecutor
+
+    executor = SingleThreadedExecutor(context=node.context)
+    executor.add_node(node)
+    values: dict[str, Any] = {
+        "module": module,
+        "class": class_name,
+        "name": node.get_name(),
+        "namespace": node.get_namespace(),
+        "remaps": [f"{a}:={b}" for a, b in _ros_remaps(argv)] or [""],
+        "is_first": is_first or bool(params.get("is_first", False)),
+        "topics_ignore_for_graph": str(params.get("topics_ignore_for_graph") or ""),
+        "launcher": me,
+    }
+    if values["remaps"] == [""]:
+        values["remaps"] = []
+    for key, value in params.items():
+        if key not in _RESERVED and key not in ("rt_package", "rt_type"):
+            values[f"param.{key}"] = value
+
+    def request(service: str, vals: dict[str, Any]) -> tuple[bool, str]:
+        client = node.create_client(SetParametersAtomically, f"{runner}/{service}")
+        if not client.wait_for_service(timeout_sec=30.0):
+            return False, f"no runner answers at {runner}/{service}"
+        req = SetParametersAtomically.Request()
+        req.parameters = [
+            Parameter(name=k, value=PyParameter(k, value=_plain(v)).get_parameter_value())
+            for k, v in vals.items()
+            if not (isinstance(v, list) and not v)
+        ]
+        future = client.call_async(req)
+        executor.spin_until_future_complete(future, timeout_sec=60.0)
+        if not future.done() or future.result() is None:
+            return False, f"{runner}/{service} did not answer"
+        result = future.result().result
+        return bool(result.successful), str(result.reason)
+
+    who = f"rt_launcher {me}"
+    ok, reason = request("load_component", values)
+    if not ok:
+        _say(who, f"error: {runner} refused to load {module}.{class_name}: {reason}")
+        node.destroy_node()
+        rclpy.try_shutdown(context=node.context)
+        return 1
+    _say(who, f"loaded into {runner}")
+    stop = threading.Event()
+
+    def handler(signum: int, frame: FrameType | None) -> None:
+        stop.set()
+
+    signal.signal(signal.SIGINT, handler)
+    signal.signal(signal.SIGTERM, handler)
+    status = 0
+    last_check = 0.0
+    presence = _Presence()
+    while not stop.is_set():
+        executor.spin_once(timeout_sec=0.1)
+        now = time.monotonic()
+        if now - last_check >= WATCH_EVERY_S:
+            last_check = now
+            presence.update(node)
+            if presence.gone(runner):
+                _say(who, f"error: the runner {runner} is gone; exiting")
+                status = 1
+                break
+    if status == 0:
+        ok, reason = request("unload_component", {"name": values["namespace"].rstrip("/")
+                                                  + "/" + values["name"]})
+        if not ok:
+            _say(who, f"warning: unload refused: {reason}")
+    node.destroy_node()
+    rclpy.try_shutdown(context=node.context)
+    return status
+
+
+class _Presence:
+    """Which nodes the graph shows; a node is gone once seen and then missed twice.
+
+    Discovery is gradual: right after start a node may not yet see a peer it
+    already talks to, so absence alone proves nothing. A process killed with
+    SIGKILL leaves the graph when DDS drops its participant (Fast DDS: after its
+    lease, 20 s by default).
+    """
+
+    def __init__(self) -> None:
+        self.seen: set[str] = set()
+        self.missed: dict[str, int] = {}
+
+    def update(self, node: Any) -> None:
+        alive = {f"{ns.rstrip('/')}/{n}" for n, ns in node.get_node_names_and_namespaces()}
+        self.seen |= alive
+        for name in self.seen:
+            self.missed[name] = 0 if name in alive else self.missed.get(name, 0) + 1
+
+    def gone(self, name: str) -> bool:
+        return name in self.seen and self.missed.get(name, 0) >= 2
+
+
+def _plain(v: Any) -> Any:
+    return list(v) if isinstance(v, tuple) else v

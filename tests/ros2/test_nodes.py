@@ -1,0 +1,210 @@
+"""rt_runner and rt_launcher as separate ROS 2 processes, as ros2 run would start them."""
+
+import os
+import select
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+from rcl_interfaces.msg import Parameter
+from rcl_interfaces.srv import SetParametersAtomically
+from rclpy.parameter import Parameter as PyParameter
+from std_msgs.msg import Float64
+
+from .conftest import rtcf_env
+from .test_topics import spin_until
+
+pytestmark = pytest.mark.integration
+
+BIN = Path(sys.executable).parent
+
+
+STARTED = []
+
+
+@pytest.fixture(autouse=True)
+def _end_all():
+    yield
+    end(*STARTED)
+    STARTED.clear()
+
+
+def start(exe, *args):
+    proc = subprocess.Popen(
+        [str(BIN / exe), *map(str, args)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        stdin=subprocess.DEVNULL,
+        text=True,
+        env=rtcf_env(),
+    )
+    STARTED.append(proc)
+    return proc
+
+
+def runner(name, **params):
+    args = ["--ros-args", "-r", f"__node:={name}", "-p", "mode:=no_wait"]
+    params.setdefault("frequency", 100.0)
+    params.setdefault("ros_mapping_whitelist", "/ros/.*")
+    for key, value in params.items():
+        args += ["-p", f"{key}:={value}"]
+    return start("rt_runner", *args)
+
+
+def launcher(runner_name, name, cls, *remaps):
+    args = ["rtcf_examples", cls, "--ros-args", "-r", f"__node:={name}"]
+    for rule in remaps:
+        args += ["-r", rule]
+    args += ["-p", f"runner:={runner_name}"]
+    return start("rt_launcher", *args)
+
+
+_SEEN: dict[int, str] = {}
+
+
+def wait_for(proc, text, timeout=30.0):
+    """Read the process's stderr (unbuffered) until ``text`` shows; return all read."""
+    fd = proc.stderr.fileno()
+    deadline = time.monotonic() + timeout
+    while text not in _SEEN.get(proc.pid, ""):
+        if time.monotonic() > deadline:
+            raise AssertionError(f"no {text!r} in:\n" + _SEEN.get(proc.pid, ""))
+        ready, _, _ = select.select([fd], [], [], 0.2)
+        if ready:
+            chunk = os.read(fd, 65536)
+            if not chunk:
+                if text not in _SEEN.get(proc.pid, ""):
+                    raise AssertionError(f"no {text!r} in:\n" + _SEEN.get(proc.pid, ""))
+                break
+            _SEEN[proc.pid] = _SEEN.get(proc.pid, "") + chunk.decode(errors="replace")
+    return _SEEN[proc.pid]
+
+
+def end(*procs):
+    for p in procs:
+        if p.poll() is None:
+            p.send_signal(signal.SIGINT)
+    for p in procs:
+        try:
+            p.communicate(timeout=30)
+        except subprocess.TimeoutExpired:
+            p.kill()
+            p.communicate()
+
+
+def sum_of_two_launchers(ros_node, runner_name, prefix):
+    """Two Mimo launchers: out = 3 * in, as in the SumTest."""
+    a = launcher(runner_name, f"{prefix}a", "Mimo", f"in1:=/ros/{prefix}in",
+                 f"in2:=/ros/{prefix}in", f"out1:=/{prefix}mid")
+    b = launcher(runner_name, f"{prefix}b", "Mimo", f"in1:=/{prefix}mid",
+                 f"in2:=/ros/{prefix}in", f"out1:=/ros/{prefix}out")
+    wait_for(a, "loaded into")
+    wait_for(b, "loaded into")
+    got = []
+    ros_node.create_subscription(Float64, f"/ros/{prefix}out", lambda m: got.append(m.data), 10)
+    pub = ros_node.create_publisher(Float64, f"/ros/{prefix}in", 10)
+    assert spin_until(
+        ros_node,
+        lambda: bool(got) and got[-1] == pytest.approx(3 * 7.0),
+        publish=lambda: pub.publish(Float64(data=7.0)),
+    ), got[-3:]
+    return a, b
+
+
+def test_runner_and_launchers_as_separate_processes(ros_node):
+    r = runner("rt_runner")
+    try:
+        wait_for(r, "ready")
+        a, b = sum_of_two_launchers(ros_node, "/rt_runner", "")
+        def names():
+            return {n for n, _ in ros_node.get_node_names_and_namespaces()}
+
+        # each component is a node of its own name in the graph
+        assert spin_until(ros_node, lambda: {"rt_runner", "a", "b"} <= names(), timeout=30), names()
+        end(a)  # a stopped launcher unloads its component
+        wait_for(r, "unloaded /a")
+        end(b)
+        wait_for(r, "unloaded /b")
+    finally:
+        end(r)
+    assert r.returncode == 0
+
+
+def test_a_malformed_load_request_is_refused_and_the_runner_keeps_running(ros_node):
+    r = runner("rt_runner")
+    try:
+        wait_for(r, "ready")
+        client = ros_node.create_client(SetParametersAtomically, "/rt_runner/load_component")
+        assert client.wait_for_service(timeout_sec=20)
+        req = SetParametersAtomically.Request()
+        req.parameters = [
+            Parameter(name="module", value=PyParameter("m", value="rtcf_examples")
+                      .get_parameter_value()),
+            Parameter(name="name", value=PyParameter("n", value="x").get_parameter_value()),
+        ]
+        future = client.call_async(req)
+        assert spin_until(ros_node, future.done)
+        result = future.result().result
+        assert not result.successful
+        assert "missing: class" in result.reason
+        bad = launcher("/rt_runner", "ghost", "NoSuchClass")
+        bad.communicate(timeout=60)
+        assert bad.returncode == 1
+        # still serving: a good launcher works afterwards
+        a, b = sum_of_two_launchers(ros_node, "/rt_runner", "")
+        end(a, b)
+    finally:
+        end(r)
+    assert r.returncode == 0
+
+
+def test_a_killed_launcher_gets_its_component_unloaded(ros_node):
+    r = runner("rt_runner")
+    try:
+        wait_for(r, "ready")
+        a = launcher("/rt_runner", "lonely", "Mimo", "in1:=/ros/q")
+        wait_for(a, "loaded into")
+        wait_for(r, "loaded /lonely")
+        a.kill()
+        a.communicate()
+        # noticed when DDS drops the dead participant (Fast DDS: lease of 20 s by default)
+        t0 = time.monotonic()
+        wait_for(r, "unloaded /lonely", timeout=60)
+        print(f"killed launcher noticed after {time.monotonic() - t0:.1f} s")
+    finally:
+        end(r)
+
+
+def test_launchers_of_a_killed_runner_exit_with_a_clear_message(ros_node):
+    r = runner("rt_runner")
+    a = None
+    try:
+        wait_for(r, "ready")
+        a = launcher("/rt_runner", "orphan", "Mimo")
+        wait_for(a, "loaded into")
+        r.kill()
+        r.communicate()
+        err = wait_for(a, "is gone", timeout=60)  # after the DDS lease of the dead runner
+        assert "the runner /rt_runner is gone" in err
+        a.communicate(timeout=20)
+        assert a.returncode == 1
+    finally:
+        end(r, *(p for p in (a,) if p is not None))
+
+
+def test_two_runners_share_one_graph(ros_node):
+    r1 = runner("runner_one")
+    r2 = runner("runner_two")
+    try:
+        wait_for(r1, "ready")
+        wait_for(r2, "ready")
+        a1, b1 = sum_of_two_launchers(ros_node, "/runner_one", "one_")
+        a2, b2 = sum_of_two_launchers(ros_node, "/runner_two", "two_")
+        wait_for(r1, "loaded /one_b")
+        wait_for(r2, "loaded /two_b")
+        end(a1, b1, a2, b2)
+    finally:
+        end(r1, r2)
