@@ -174,6 +174,8 @@ def runner_main(argv: list[str] | None = None) -> int:
                 spec, launcher = _spec(req.payload)
                 runner.load(spec)
                 launchers[spec.full_name] = launcher
+                if launcher:  # it called us, so it exists even if the graph lags behind
+                    presence.seen.add(launcher)
                 _say(name, f"loaded {spec.full_name} ({spec.module}.{spec.class_name})")
             elif req.kind == "unload":
                 full = req.payload if req.payload.startswith("/") else "/" + req.payload
@@ -339,6 +341,7 @@ def launcher_main(argv: list[str] | None = None) -> int:
     status = 0
     last_check = 0.0
     presence = _Presence()
+    presence.seen.add(runner)  # it answered, so it exists even if the graph lags behind
     while not stop.is_set():
         executor.spin_once(timeout_sec=0.1)
         now = time.monotonic()
@@ -360,7 +363,7 @@ def launcher_main(argv: list[str] | None = None) -> int:
 
 
 class _Presence:
-    """Which nodes the graph shows; a node is gone once seen and then missed twice.
+    """Which nodes the graph shows; a node is gone once seen and then missed 3 times.
 
     Discovery is gradual: right after start a node may not yet see a peer it
     already talks to, so absence alone proves nothing. A process killed with
@@ -379,7 +382,7 @@ class _Presence:
             self.missed[name] = 0 if name in alive else self.missed.get(name, 0) + 1
 
     def gone(self, name: str) -> bool:
-        return name in self.seen and self.missed.get(name, 0) >= 2
+        return name in self.seen and self.missed.get(name, 0) >= 3
 
 
 def _plain(v: Any) -> Any:
