@@ -8,7 +8,6 @@ import json
 import os
 import pty
 import re
-import select
 import signal
 import subprocess
 import sys
@@ -19,6 +18,7 @@ import pytest
 
 from rtcf._channels import leftover_segments
 
+from .._proc import read_rest, wait_for, wait_for_match
 from .conftest import FIXTURES, SRC, run_rtcf
 
 pytestmark = pytest.mark.integration
@@ -59,23 +59,6 @@ def start(*args, **kwargs):
         env=env(),
         **kwargs,
     )
-
-
-def wait_for_line(proc, pattern, timeout=30.0):
-    """Read stderr until a line matches; return the match and what was read."""
-    seen = []
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        ready, _, _ = select.select([proc.stderr], [], [], 0.2)
-        if ready:
-            line = proc.stderr.readline()
-            if not line:
-                break
-            seen.append(line)
-            m = re.search(pattern, line)
-            if m:
-                return m, "".join(seen)
-    raise AssertionError(f"no line matching {pattern!r} in:\n{''.join(seen)}")
 
 
 def alive(pid):
@@ -185,7 +168,7 @@ def test_refused_settings_are_reported_and_the_loop_still_runs(tmp_path):
 
 def test_nothing_is_left_in_dev_shm_after_a_normal_run(tmp_path):
     proc = start("launch", write_launch(tmp_path, FACTS), "--duration", "0.3")
-    _out, err = proc.communicate(timeout=120)
+    _out, err = read_rest(proc, 120)
     assert proc.returncode == 0, err
     assert leftover_segments(proc.pid) == []
 
@@ -204,9 +187,9 @@ def test_a_signal_stops_the_loop_runs_the_hooks_and_cleans_up(tmp_path, sig, gro
       </node>""",
     )
     proc = start("launch", path, start_new_session=group)
-    m, _ = wait_for_line(proc, r"loop in worker process (\d+)")
+    m = wait_for_match(proc, r"loop in worker process (\d+)")
     worker = int(m.group(1))
-    wait_for_line(proc, r"running until Ctrl-C")
+    wait_for(proc, "running until Ctrl-C")
     time.sleep(0.3)
     # while running, the names are already gone from /dev/shm: nothing can leak
     assert leftover_segments(proc.pid) == []
@@ -214,7 +197,7 @@ def test_a_signal_stops_the_loop_runs_the_hooks_and_cleans_up(tmp_path, sig, gro
         os.killpg(proc.pid, sig)
     else:
         proc.send_signal(sig)
-    out, err = proc.communicate(timeout=60)
+    out, err = read_rest(proc, 60)
     assert proc.returncode == 0, err
     assert f"{signal.Signals(sig).name}: stopping after this iteration" in err
     assert "Explodes stop hook ran" in err and "Explodes cleanup hook ran" in err
@@ -225,12 +208,12 @@ def test_a_signal_stops_the_loop_runs_the_hooks_and_cleans_up(tmp_path, sig, gro
 
 def test_a_worker_killed_with_sigkill_is_reported_and_cleaned_up(tmp_path):
     proc = start("launch", write_launch(tmp_path, FACTS))
-    m, _ = wait_for_line(proc, r"loop in worker process (\d+)")
+    m = wait_for_match(proc, r"loop in worker process (\d+)")
     worker = int(m.group(1))
-    wait_for_line(proc, r"running until Ctrl-C")
+    wait_for(proc, "running until Ctrl-C")
     time.sleep(0.3)
     os.kill(worker, signal.SIGKILL)
-    _out, err = proc.communicate(timeout=60)
+    _out, err = read_rest(proc, 60)
     assert proc.returncode == 1, err
     lines = [ln for ln in err.splitlines() if ln.startswith("rtcf: error:")]
     assert len(lines) == 1, err
@@ -248,11 +231,11 @@ def test_a_supervisor_killed_with_sigkill_takes_its_worker_along(tmp_path):
       </node>""",
     )
     proc = start("launch", path)
-    m, _ = wait_for_line(proc, r"loop in worker process (\d+)")
+    m = wait_for_match(proc, r"loop in worker process (\d+)")
     worker = int(m.group(1))
-    wait_for_line(proc, r"running until Ctrl-C")
+    wait_for(proc, "running until Ctrl-C")
     proc.kill()
-    proc.communicate(timeout=30)
+    read_rest(proc, 30)
     # the worker gets SIGTERM from the kernel (PR_SET_PDEATHSIG), stops and leaves
     assert wait_gone(worker), "the worker outlived its supervisor"
     assert leftover_segments(proc.pid) == []
@@ -267,7 +250,7 @@ def test_a_raising_component_ends_the_run_with_its_name_and_cleans_up(tmp_path):
       </node>""",
     )
     proc = start("launch", path, "--duration", "10")
-    _out, err = proc.communicate(timeout=60)
+    _out, err = read_rest(proc, 60)
     assert proc.returncode == 1, err
     lines = [ln for ln in err.splitlines() if ln.startswith("rtcf: error:")]
     assert len(lines) == 1 and "'/bomb'" in lines[0] and "iteration 5" in lines[0], err

@@ -1,7 +1,5 @@
 """rt_runner and rt_launcher as separate ROS 2 processes, as ros2 run would start them."""
 
-import os
-import select
 import signal
 import subprocess
 import sys
@@ -14,6 +12,7 @@ from rcl_interfaces.srv import SetParametersAtomically
 from rclpy.parameter import Parameter as PyParameter
 from std_msgs.msg import Float64
 
+from .._proc import wait_for
 from .conftest import rtcf_env
 from .test_topics import spin_until
 
@@ -60,27 +59,6 @@ def launcher(runner_name, name, cls, *remaps):
         args += ["-r", rule]
     args += ["-p", f"runner:={runner_name}"]
     return start("rt_launcher", *args)
-
-
-_SEEN: dict[int, str] = {}
-
-
-def wait_for(proc, text, timeout=30.0):
-    """Read the process's stderr (unbuffered) until ``text`` shows; return all read."""
-    fd = proc.stderr.fileno()
-    deadline = time.monotonic() + timeout
-    while text not in _SEEN.get(proc.pid, ""):
-        if time.monotonic() > deadline:
-            raise AssertionError(f"no {text!r} in:\n" + _SEEN.get(proc.pid, ""))
-        ready, _, _ = select.select([fd], [], [], 0.2)
-        if ready:
-            chunk = os.read(fd, 65536)
-            if not chunk:
-                if text not in _SEEN.get(proc.pid, ""):
-                    raise AssertionError(f"no {text!r} in:\n" + _SEEN.get(proc.pid, ""))
-                break
-            _SEEN[proc.pid] = _SEEN.get(proc.pid, "") + chunk.decode(errors="replace")
-    return _SEEN[proc.pid]
 
 
 def end(*procs):

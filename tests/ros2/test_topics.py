@@ -1,6 +1,5 @@
 """Ports mapped to ROS 2 topics, end to end through a real rclpy graph."""
 
-import select
 import signal
 import textwrap
 import time
@@ -9,30 +8,23 @@ import pytest
 import rclpy
 from std_msgs.msg import Float64
 
+from .._proc import read_rest, wait_for
 from .conftest import start_rtcf
 
 pytestmark = pytest.mark.integration
 
 
 def wait_running(proc, timeout=30.0):
-    seen = []
-    deadline = time.monotonic() + timeout
-    while time.monotonic() < deadline:
-        ready, _, _ = select.select([proc.stderr], [], [], 0.2)
-        if ready:
-            line = proc.stderr.readline()
-            if not line:
-                break
-            seen.append(line)
-            if "running until Ctrl-C" in line:
-                return "".join(seen)
-    proc.kill()
-    raise AssertionError("rtcf did not start:\n" + "".join(seen))
+    try:
+        return wait_for(proc, "running until Ctrl-C", timeout)
+    except AssertionError:
+        proc.kill()
+        raise
 
 
 def stop(proc):
     proc.send_signal(signal.SIGINT)
-    out, err = proc.communicate(timeout=60)
+    out, err = read_rest(proc)
     assert proc.returncode == 0, err
     return out, err
 

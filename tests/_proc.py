@@ -1,0 +1,44 @@
+"""Reading a child process's stderr while it runs (shared by the process tests)."""
+
+import os
+import re
+import select
+import time
+
+_SEEN: dict[int, str] = {}
+
+
+def _wait_until(proc, found, what, timeout):
+    # reads the file descriptor itself: a buffered readline() would pull several
+    # lines into Python's buffer, where select() no longer sees them
+    fd = proc.stderr.fileno()
+    deadline = time.monotonic() + timeout
+    while True:
+        seen = _SEEN.get(proc.pid, "")
+        result = found(seen)
+        if result:
+            return result
+        if time.monotonic() > deadline:
+            raise AssertionError(f"no {what} in:\n{seen}")
+        ready, _, _ = select.select([fd], [], [], 0.2)
+        if ready:
+            chunk = os.read(fd, 65536)
+            if not chunk:
+                raise AssertionError(f"no {what} before the end of stderr:\n{seen}")
+            _SEEN[proc.pid] = seen + chunk.decode(errors="replace")
+
+
+def wait_for(proc, text, timeout=30.0):
+    """Read ``proc``'s stderr until ``text`` shows; return everything read so far."""
+    return _wait_until(proc, lambda s: s if text in s else "", repr(text), timeout)
+
+
+def wait_for_match(proc, pattern, timeout=30.0):
+    """Read ``proc``'s stderr until ``pattern`` matches; return the match."""
+    return _wait_until(proc, lambda s: re.search(pattern, s), f"match of {pattern!r}", timeout)
+
+
+def read_rest(proc, timeout=60.0):
+    """Wait for ``proc`` to end; return (stdout, all of stderr including what was read)."""
+    out, err = proc.communicate(timeout=timeout)
+    return out, _SEEN.pop(proc.pid, "") + (err or "")
