@@ -636,6 +636,16 @@ def _json_default(obj: Any) -> Any:
     raise TypeError(f"cannot write {type(obj).__name__} to JSON")
 
 
+def publish_section(name: str, body: str, machine: Mapping[str, Any], timestamp: str) -> None:
+    """Rewrite a benchmark's section of docs/performance.md, ending with where and when."""
+    footer = (
+        f"Machine: {machine_line(machine)}. Measured {timestamp} "
+        f"(`benchmarks/results/{name}.json`)."
+    )
+    update_doc_section(name, f"{body.rstrip()}\n\n{footer}")
+    print(f"updated {DOC.relative_to(REPO)} (section {name})")
+
+
 def update_doc_section(name: str, body: str) -> None:
     """Replace the text between ``<!-- BEGIN name -->`` and ``<!-- END name -->``."""
     begin, end = f"<!-- BEGIN {name} -->", f"<!-- END {name} -->"

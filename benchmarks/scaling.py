@@ -166,13 +166,9 @@ def main() -> int:
                 tab,
                 "",
                 summary + ".",
-                "",
-                f"Machine: {c.machine_line(machine)}. Measured {data['timestamp']} "
-                f"(`benchmarks/results/{NAME}.json`).",
             ]
         )
-        c.update_doc_section(NAME, body)
-        print(f"updated {c.DOC.relative_to(c.REPO)} (section {NAME})")
+        c.publish_section(NAME, body, machine, data["timestamp"])
     return 0
 
 

@@ -39,13 +39,15 @@ class LogRecord:
 
     __slots__ = ("args", "iteration", "level", "logger", "msg", "time_ns")
 
-    def __init__(self) -> None:
-        self.level = 0
-        self.logger = ""
-        self.msg = ""
+    def __init__(
+        self, level: int = 0, logger: str = "", msg: str = "", iteration: int = -1, time_ns: int = 0
+    ) -> None:
+        self.level = level
+        self.logger = logger
+        self.msg = msg
         self.args: tuple[Any, ...] = ()
-        self.iteration = -1
-        self.time_ns = 0
+        self.iteration = iteration
+        self.time_ns = time_ns
 
     def format(self) -> str:
         return format_message(self.msg, self.args)

@@ -138,8 +138,6 @@ class Ros2Bridge:
         self._outputs: list[tuple[Ring, Any, Callable[[bytes], Any]]] = []
         self._subscriptions: list[Any] = []
         self._publishers: list[Any] = []
-        self.published: dict[str, int] = {}
-        self.received: dict[str, int] = {}
         self._running = True
         self._thread = threading.Thread(target=self._spin, name="rtcf-ros2", daemon=True)
         self._thread.start()
@@ -161,10 +159,8 @@ class Ros2Bridge:
                         return _to_message(kind, cls, payload)
 
                     self._outputs.append((channel, pub, convert))
-                    self.published.setdefault(port.topic, 0)
                 else:
                     assert isinstance(channel, Mailbox)
-                    self.received.setdefault(port.topic, 0)
                     self._subscriptions.append(
                         self.node.create_subscription(
                             cls,
@@ -176,15 +172,13 @@ class Ros2Bridge:
                     )
 
     def _feeder(self, port: MappedPort, box: Mailbox) -> Callable[[Any], None]:
-        kind, topic = port.kind, port.topic
-        received = self.received
+        kind = port.kind
 
         def on_message(msg: Any) -> None:
             payload = _from_message(kind, msg)
             with self._lock:  # the run may have closed its channels meanwhile
                 if self._open and len(payload) <= box.size:
                     box.write(payload)
-                    received[topic] += 1
 
         return on_message
 
@@ -293,7 +287,6 @@ class Ros2Bridge:
                 for slot in range(start, start + n):
                     pub.publish(convert(read_record(ring, slot)))
                 ring.release(n)
-                self.published[pub.topic_name] = self.published.get(pub.topic_name, 0) + n
 
     def shutdown(self) -> None:
         self._running = False

@@ -448,10 +448,7 @@ class Runner:
     def _emit_now(self, level: int, logger: str, text: str, iteration: int, time_ns: int) -> None:
         """Non-real-time logging in this process: after what the ring holds, in order."""
         self.drain_logs()
-        rec = LogRecord()
-        rec.level, rec.logger, rec.msg = level, logger, text
-        rec.iteration, rec.time_ns = iteration, time_ns
-        self.log_sink(rec)
+        self.log_sink(LogRecord(level, logger, text, iteration, time_ns))
 
     def shutdown(self) -> list[ComponentError]:
         """Stop and clean up every component, last in the order first.

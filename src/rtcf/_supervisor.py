@@ -449,9 +449,7 @@ def _both(
 
 
 def _note(level: int, text: str) -> LogRecord:
-    rec = LogRecord()
-    rec.level, rec.logger, rec.msg = level, "rt_runner", text
-    return rec
+    return LogRecord(level, "rt_runner", text)
 
 
 def _counts_only(timing: TimingSummary) -> TimingSummary:
