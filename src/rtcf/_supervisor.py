@@ -323,7 +323,10 @@ class WorkerRunner:
             self._close_segment(seg)
             if self.bridge is not None and ports:
                 self.bridge.close_run()
-            for channel in channels.values():
+            for topic, channel in channels.items():
+                if isinstance(channel, Ring) and channel.dropped:
+                    self.log_sink(_note(30, f"{channel.dropped} messages on {topic} were dropped: "
+                                            "the channel to the middleware was full"))
                 channel.close()
             if port_seg is not None:
                 self._close_segment(port_seg)
