@@ -6,11 +6,15 @@ its leaves; getting a namespace assembles a dict, as the ROS 1 parameter server 
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Mapping
+import re
+from collections.abc import Iterator, Mapping, Sequence
 from typing import Any
 
 from ._errors import ConfigurationError
 from ._names import Resolver, normalize_namespace
+from ._tunables import Tunable, declare
+
+_TUNABLE_NAME = re.compile(r"[A-Za-z][A-Za-z0-9_]*")
 
 _MISSING: Any = object()
 
@@ -91,12 +95,14 @@ class Params:
     the component's namespace, ``/name`` is absolute. Read them in ``configure``.
     """
 
-    __slots__ = ("_component", "_resolver", "_store")
+    __slots__ = ("_component", "_resolver", "_store", "declared", "sealed")
 
     def __init__(self, store: ParameterStore, resolver: Resolver, component: str) -> None:
         self._store = store
         self._resolver = resolver
         self._component = component
+        self.declared: dict[str, Tunable[Any]] = {}  # tunable parameters by name
+        self.sealed = False  # set after configure: no more declarations
 
     def resolve(self, name: str) -> str:
         """Return the absolute name that ``name`` stands for."""
@@ -125,3 +131,46 @@ class Params:
     def set(self, name: str, value: Any) -> None:
         """Set a parameter (non-real-time: call it from configure or start)."""
         self._store.set(self.resolve(name), value)
+
+    def declare(
+        self,
+        name: str,
+        default: Any,
+        *,
+        description: str = "",
+        min: float | None = None,
+        max: float | None = None,
+        choices: Sequence[Any] | None = None,
+    ) -> Tunable[Any]:
+        """Declare a tunable parameter (in ``configure``); read ``.value`` in ``update``.
+
+        Its type is the default's (bool, int, float or str). It starts at the private
+        parameter ``~name`` when the launch file sets one, else at ``default``.
+        ``min``/``max`` bound numbers, ``choices`` lists the allowed values (an enum).
+        Tools change it while the loop runs (ROS 2 ``set_parameters``, ROS 1
+        ``dynparam``); the change is applied between two iterations.
+        """
+        bare = name[1:] if name.startswith("~") else name
+        where = f"component {self._component!r}: tunable parameter {name!r}"
+        if self.sealed:
+            raise ConfigurationError(f"{where} is declared after configure(); declare it there")
+        if not _TUNABLE_NAME.fullmatch(bare):
+            raise ConfigurationError(
+                f"{where}: a tunable parameter's name is a letter followed by letters, "
+                "digits and underscores"
+            )
+        if bare in self.declared:
+            raise ConfigurationError(f"{where} is declared twice")
+        initial = self._store.get(self._resolver.private(bare), default)
+        tunable = declare(
+            self._component,
+            bare,
+            default,
+            initial,
+            description=description,
+            min=min,
+            max=max,
+            choices=choices,
+        )
+        self.declared[bare] = tunable
+        return tunable

@@ -15,6 +15,7 @@ from typing import Any
 
 from ._channels import Ring
 from ._clock import Clock, MonotonicClock
+from ._codec import type_name
 from ._component import Component, _attach, overrides
 from ._errors import ComponentError, ConfigurationError, RtcfError
 from ._executor import Executor, StopFlag, UpdateFailure
@@ -28,6 +29,7 @@ from ._params import ParameterStore
 from ._ports import InputPort, OutputPort
 from ._settings import RunnerSettings
 from ._timing import TimingAggregate, TimingSummary, TimingWriter, local_ring
+from ._tunables import LOG_LEVEL, PARAMETER
 
 
 @dataclass
@@ -198,21 +200,83 @@ class Runner:
         if ok is False:
             raise fail("configure() returned False")
         component._rtcf_configured = True
+        component.params.sealed = True
         self._loaded[full] = _Loaded(spec, component, ignore)
         self._invalidate()
         return component
 
-    def unload(self, name: str) -> None:
-        """Stop and clean up a component and take it out of the loop."""
+    def _entry(self, name: str) -> _Loaded:
         full = normalize_namespace(name) if name.startswith("/") else join("/", name)
-        entry = self._loaded.pop(full, None)
+        entry = self._loaded.get(full)
         if entry is None:
             known = ", ".join(self._loaded) or "none"
             raise ComponentError(f"component {full!r} is not loaded (loaded: {known})")
+        return entry
+
+    def unload(self, name: str) -> None:
+        """Stop and clean up a component and take it out of the loop."""
+        entry = self._entry(name)
+        full = entry.spec.full_name
+        del self._loaded[full]
         self._invalidate()
         errors = self._teardown([entry])
         if errors:
             raise errors[0]
+
+    # -- tuning ---------------------------------------------------------------
+    def describe_component(self, name: str) -> dict[str, Any]:
+        """A loaded component as tools show it: type, ports, parameters, tunables."""
+        entry = self._entry(name)
+        comp = entry.component
+        full = entry.spec.full_name
+        private = self.parameters.get(comp._rtcf_resolver.private(), {})
+        return {
+            "name": full,
+            "type": entry.spec.type_name,
+            "launcher": "",
+            "inputs": [_port_info(p) for p in comp._rtcf_inputs.values()],
+            "outputs": [_port_info(p) for p in comp._rtcf_outputs.values()],
+            "parameters": private if isinstance(private, dict) else {},
+            "tunables": [
+                {**t.spec.to_dict(), "value": t.value} for t in comp.params.declared.values()
+            ],
+            "log_level": comp.log.level,
+        }
+
+    def set_parameter(self, component: str, name: str, value: Any) -> Any:
+        """Validate and set a tunable parameter; returns the value as set.
+
+        In this process it takes effect at once: call it between iterations (from
+        ``on_iteration``) or between runs. A worker gets its changes through
+        :func:`apply_update`, at the start of an iteration.
+        """
+        entry = self._entry(component)
+        tunable = entry.component.params.declared.get(name)
+        if tunable is None:
+            known = ", ".join(entry.component.params.declared) or "none"
+            raise ConfigurationError(
+                f"component {entry.spec.full_name!r} has no tunable parameter {name!r} "
+                f"(it declares: {known})"
+            )
+        value = tunable.spec.validate(value)
+        tunable._apply(value)
+        return value
+
+    def set_log_level(self, component: str, level: int | str) -> None:
+        """Records below ``level`` are dropped where they are made (never queued)."""
+        self._entry(component).component.log.set_level(level)
+
+    def apply_update(self, kind: int, component: str, name: str, value: Any) -> None:
+        """Apply an update the supervisor validated (a worker, between two iterations)."""
+        entry = self._loaded.get(component)
+        if entry is None:  # unloaded after the supervisor sent it: nothing to change
+            return
+        if kind == PARAMETER:
+            tunable = entry.component.params.declared.get(name)
+            if tunable is not None:
+                tunable._apply(value)
+        elif kind == LOG_LEVEL:
+            entry.component.log.level = int(value)
 
     def activate(self) -> None:
         """Allow the loop to run (mode ``wait_for_trigger``; the original's activate_rt_loop)."""
@@ -482,6 +546,10 @@ class Runner:
             entry.started = False
         self.drain_logs()
         return errors
+
+
+def _port_info(port: Any) -> dict[str, Any]:
+    return {"name": port.name, "topic": port.topic, "type": type_name(port.type)}
 
 
 def _info(component: str, port: Any) -> PortInfo:
