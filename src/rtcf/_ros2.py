@@ -22,12 +22,13 @@ from typing import TYPE_CHECKING, Any
 
 from ._channels import Mailbox, Ring
 from ._errors import RtcfError
-from ._log import LogRecord
+from ._log import LogLevel, LogRecord
+from ._port_channels import MappedPort, read_record
+from ._ros2_face import ComponentFace, ros_logger_name
 from ._timing import TimingAggregate
 
 if TYPE_CHECKING:
-    from ._supervisor import LiveStatus
-from ._port_channels import MappedPort, read_record
+    from ._supervisor import LiveStatus, WorkerRunner
 
 QOS_DEPTH = 10
 SPIN_TIMEOUT_S = 0.0005  # how long the bridge thread waits for ROS events per turn
@@ -138,6 +139,7 @@ class Ros2Bridge:
         self._outputs: list[tuple[Ring, Any, Callable[[bytes], Any]]] = []
         self._subscriptions: list[Any] = []
         self._publishers: list[Any] = []
+        self._faces: dict[str, ComponentFace] = {}  # a node per component
         self._running = True
         self._thread = threading.Thread(target=self._spin, name="rtcf-ros2", daemon=True)
         self._thread.start()
@@ -251,6 +253,29 @@ class Ros2Bridge:
                 QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT),
             )
 
+    def component_loaded(self, info: dict[str, Any], runner: WorkerRunner) -> None:
+        """A node of the component's name, with its parameters and logger services."""
+        if info.get("launcher"):  # an rt_launcher's node is the component's face
+            return
+        from rclpy.node import Node
+
+        full = str(info["name"])
+        namespace, _, name = full.rpartition("/")
+        node = Node(
+            name, namespace=namespace or "/", context=self.context, use_global_arguments=False
+        )
+        level = runner.log_level
+        default = int(LogLevel[level.upper()]) if isinstance(level, str) else int(level)
+        self._faces[full] = ComponentFace(node, info, runner, default)
+        self.executor.add_node(node)
+
+    def component_unloaded(self, name: str) -> None:
+        face = self._faces.pop(name, None)
+        if face is not None:
+            self.executor.remove_node(face.node)
+            face.close()
+            face.node.destroy_node()
+
     def close_run(self) -> None:
         """Publish what is left, then let go of the run's channels."""
         with self._lock:
@@ -292,14 +317,13 @@ class Ros2Bridge:
         self._running = False
         self._thread.join(timeout=5.0)
         self.executor.shutdown()
+        for face in self._faces.values():
+            face.close()
+            face.node.destroy_node()
+        self._faces.clear()
         self.node.destroy_node()
         if self._owns_context:
             self._rclpy.shutdown(context=self.context)
-
-
-def ros_logger_name(component: str) -> str:
-    """ROS 2's logger name of a node: '/rtcf/sum1' -> 'rtcf.sum1'."""
-    return ".".join(p for p in component.split("/") if p)
 
 
 def _log_class() -> type:

@@ -23,6 +23,7 @@ when it is stopped. The runner unloads the components of launchers that vanish
 
 from __future__ import annotations
 
+import json
 import queue
 import signal
 import sys
@@ -34,6 +35,7 @@ from typing import Any
 
 from ._errors import RtcfError
 from ._executor import STOP
+from ._ros2_face import ComponentFace
 from ._runner import ComponentSpec
 from ._settings import RunnerSettings
 
@@ -45,7 +47,7 @@ def _say(who: str, text: str) -> None:
     print(f"{who}: {text}", file=sys.stderr, flush=True)
 
 
-def _node(default_name: str, argv: list[str]) -> tuple[Any, Any]:
+def _node(default_name: str, argv: list[str], *, logger_service: bool = True) -> tuple[Any, Any]:
     import rclpy
     from rclpy.node import Node
     from rclpy.signals import SignalHandlerOptions
@@ -56,7 +58,7 @@ def _node(default_name: str, argv: list[str]) -> tuple[Any, Any]:
         default_name,
         context=context,
         automatically_declare_parameters_from_overrides=True,
-        enable_logger_service=True,
+        enable_logger_service=logger_service,
     )
     return rclpy, node
 
@@ -128,7 +130,25 @@ def runner_main(argv: list[str] | None = None) -> int:
 
     def on_load(request: Any, response: Any) -> Any:
         req = submit("load", {p.name: _value(p.value) for p in request.parameters})
+        # on success the reason carries the component as the launcher shows it (JSON)
         response.result = SetParametersResult(successful=req.ok, reason=req.reason)
+        return response
+
+    def on_tune(request: Any, response: Any) -> Any:
+        # from the bridge thread: WorkerRunner validates and queues under its own lock
+        values = {p.name: _value(p.value) for p in request.parameters}
+        try:
+            component = str(values.pop("name", ""))
+            for key, value in values.items():
+                if key == "log_level":
+                    runner.set_log_level(component, int(value))
+                elif key.startswith("param."):
+                    runner.set_parameter(component, key[len("param.") :], value)
+                else:
+                    raise RtcfError(f"a tune request has no parameter {key!r}")
+            response.result = SetParametersResult(successful=True)
+        except RtcfError as exc:
+            response.result = SetParametersResult(successful=False, reason=str(exc))
         return response
 
     def on_unload(request: Any, response: Any) -> Any:
@@ -147,6 +167,7 @@ def runner_main(argv: list[str] | None = None) -> int:
 
     node.create_service(SetParametersAtomically, "~/load_component", on_load)
     node.create_service(SetParametersAtomically, "~/unload_component", on_unload)
+    node.create_service(SetParametersAtomically, "~/tune_component", on_tune)
     node.create_service(Trigger, "~/activate_rt_loop", trigger("activate"))
     node.create_service(Trigger, "~/deactivate_rt_loop", trigger("deactivate"))
 
@@ -172,7 +193,8 @@ def runner_main(argv: list[str] | None = None) -> int:
         try:
             if req.kind == "load":
                 spec, launcher = _spec(req.payload)
-                runner.load(spec)
+                runner.load(spec, launcher=launcher)
+                req.reason = json.dumps(runner.components[spec.full_name])
                 launchers[spec.full_name] = launcher
                 if launcher:  # it called us, so it exists even if the graph lags behind
                     presence.seen.add(launcher)
@@ -277,7 +299,8 @@ def launcher_main(argv: list[str] | None = None) -> int:
     words = remove_ros_args(argv)[1:]
     is_first = any(w in ("-f", "--is_first") for w in words)
     positional = [w for w in words if not w.startswith("-")]
-    rclpy, node = _node("rt_launcher", argv)
+    # the component's logger services are its face's, which the runner's worker obeys
+    rclpy, node = _node("rt_launcher", argv, logger_service=False)
     me = node.get_fully_qualified_name()
     params = _params(node)
     module = positional[0] if positional else str(params.get("rt_package") or "")
@@ -331,6 +354,9 @@ def launcher_main(argv: list[str] | None = None) -> int:
         rclpy.try_shutdown(context=node.context)
         return 1
     _say(who, f"loaded into {runner}")
+    info = json.loads(reason)
+    level = int(info.get("log_level") or 20)
+    face = ComponentFace(node, info, _RunnerLink(node, runner, who), level)
     stop = threading.Event()
 
     def handler(signum: int, frame: FrameType | None) -> None:
@@ -357,9 +383,52 @@ def launcher_main(argv: list[str] | None = None) -> int:
                                                   + "/" + values["name"]})
         if not ok:
             _say(who, f"warning: unload refused: {reason}")
+    face.close()
     node.destroy_node()
     rclpy.try_shutdown(context=node.context)
     return status
+
+
+class _RunnerLink:
+    """A launcher's Tuner: forwards validated changes to its runner's ~/tune_component.
+
+    The face validated the value already (with the declaration the runner sent), so
+    the call does not wait: a parameter callback must not block the launcher's only
+    executor thread. A refusal by the runner is printed.
+    """
+
+    def __init__(self, node: Any, runner: str, who: str) -> None:
+        from rcl_interfaces.srv import SetParametersAtomically
+
+        self.node = node
+        self.who = who
+        self.client = node.create_client(SetParametersAtomically, f"{runner}/tune_component")
+
+    def set_parameter(self, component: str, name: str, value: Any) -> Any:
+        self._send({"name": component, f"param.{name}": value})
+        return value
+
+    def set_log_level(self, component: str, level: int | str) -> None:
+        self._send({"name": component, "log_level": int(level)})
+
+    def _send(self, values: dict[str, Any]) -> None:
+        from rcl_interfaces.msg import Parameter
+        from rcl_interfaces.srv import SetParametersAtomically
+        from rclpy.parameter import Parameter as PyParameter
+
+        req = SetParametersAtomically.Request()
+        req.parameters = [
+            Parameter(name=k, value=PyParameter(k, value=v).get_parameter_value())
+            for k, v in values.items()
+        ]
+        future = self.client.call_async(req)
+
+        def done(f: Any) -> None:
+            result = f.result()
+            if result is not None and not result.result.successful:
+                _say(self.who, f"error: the runner refused a change: {result.result.reason}")
+
+        future.add_done_callback(done)
 
 
 class _Presence:

@@ -18,6 +18,7 @@ import signal
 import socket
 import subprocess
 import sys
+import threading
 import time
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -27,12 +28,20 @@ from typing import Any, Protocol
 from ._channels import Mailbox, Ring, Segment
 from ._errors import RtcfError
 from ._executor import CONTROL, STOP
-from ._log import LOG_RECORD_SIZE, LogRecord, PythonLoggingSink, drain_channel
+from ._log import LOG_RECORD_SIZE, LogLevel, LogRecord, PythonLoggingSink, drain_channel
 from ._params import ParameterStore
 from ._port_channels import OUTPUT_RING_RECORDS, MappedPort, segment_size
 from ._runner import ComponentSpec, RunResult
 from ._settings import RunnerSettings
 from ._timing import TimingAggregate, TimingSummary, ring_capacity, row_size
+from ._tunables import (
+    LOG_LEVEL,
+    PARAMETER,
+    UPDATE_RECORD_SIZE,
+    UPDATE_RING_RECORDS,
+    TunableSpec,
+    encode_update,
+)
 from ._worker import CLOCK_MAILBOX_OFFSET, CTL_STOP, error_from_dict
 
 POLL_S = 0.01  # how often the supervisor drains while it waits for the worker
@@ -95,6 +104,12 @@ class WorkerRunner:
         self._timing: tuple[Ring, list[str], TimingAggregate] | None = None
         self._events: dict[str, Any] = {}
         self.exit_reported = False
+        # loaded components as tools see them (type, ports, parameters, tunables)
+        self.components: dict[str, dict[str, Any]] = {}
+        # updates for the worker: the bridge thread sets, the main thread retries
+        self._update_lock = threading.Lock()
+        self._update_ring: Ring | None = None
+        self._backlog: dict[tuple[int, str, str], bytes] = {}
 
     # -- process ---------------------------------------------------------------
     def start(self) -> WorkerRunner:
@@ -113,6 +128,8 @@ class WorkerRunner:
             self.bridge.follow_clock(self._clock_box)
         log = self._segment(Ring.nbytes(self.log_capacity, LOG_RECORD_SIZE))
         self._log_ring = Ring.create(log.buf, self.log_capacity, LOG_RECORD_SIZE)
+        updates = self._segment(Ring.nbytes(UPDATE_RING_RECORDS, UPDATE_RECORD_SIZE))
+        self._update_ring = Ring.create(updates.buf, UPDATE_RING_RECORDS, UPDATE_RECORD_SIZE)
         ours, theirs = socket.socketpair(socket.AF_UNIX, socket.SOCK_STREAM)
         try:
             self.process = subprocess.Popen(
@@ -129,14 +146,15 @@ class WorkerRunner:
             list(sys.path),
             control.name,
             log.name,
+            updates.name,
             self.settings,
             self.parameters.as_dict(),
             self.name,
             self.simulated,
             self.log_level,
         )
-        control.unlink()  # mapped by both: the names are no longer needed
-        log.unlink()
+        for seg in (control, log, updates):  # mapped by both: the names are no longer needed
+            seg.unlink()
         return self
 
     def _segment(self, size: int) -> Segment:
@@ -235,6 +253,9 @@ class WorkerRunner:
         if self._timing is not None:
             ring, names, aggregate = self._timing
             aggregate.consume(ring, names)
+        if self._backlog:
+            with self._update_lock:
+                self._send_backlog()
 
     @property
     def log_records_dropped(self) -> int:
@@ -254,16 +275,83 @@ class WorkerRunner:
         )
 
     # -- the runner's verbs ------------------------------------------------------
-    def load(self, spec: ComponentSpec) -> str:
+    def load(self, spec: ComponentSpec, *, launcher: str = "") -> str:
         if spec.cls is not None:
             # the worker imports the class by name, as an rt_launcher would ask for it
             spec = dataclasses.replace(
                 spec, cls=None, module=spec.cls.__module__, class_name=spec.cls.__qualname__
             )
-        return str(self.call("load", spec))
+        info = dict(self.call("load", spec))
+        info["launcher"] = launcher
+        full = str(info["name"])
+        with self._update_lock:
+            self.components[full] = info
+        if self.bridge is not None:
+            self.bridge.component_loaded(info, self)
+        return full
 
     def unload(self, name: str) -> None:
-        self.call("unload", name)
+        full = name if name.startswith("/") else "/" + name
+        self.call("unload", full)
+        with self._update_lock:
+            self.components.pop(full, None)
+            self._backlog = {k: v for k, v in self._backlog.items() if k[1] != full}
+        if self.bridge is not None:
+            self.bridge.component_unloaded(full)
+
+    # -- tuning while running (any thread) ---------------------------------------
+    def tunable(self, component: str, name: str) -> TunableSpec:
+        """The declaration of a loaded component's tunable parameter."""
+        info = self._component(component)
+        for t in info["tunables"]:
+            if t["name"] == name:
+                return TunableSpec.from_dict({k: v for k, v in t.items() if k != "value"})
+        known = ", ".join(t["name"] for t in info["tunables"]) or "none"
+        raise RtcfError(
+            f"component {info['name']!r} has no tunable parameter {name!r} (it declares: {known})"
+        )
+
+    def set_parameter(self, component: str, name: str, value: Any) -> Any:
+        """Validate a new value here, then hand it to the worker for the next iteration."""
+        spec = self.tunable(component, name)
+        value = spec.validate(value)
+        with self._update_lock:
+            for t in self._component(component)["tunables"]:
+                if t["name"] == name:
+                    t["value"] = value
+            self._post((PARAMETER, spec.component, name), value)
+        return value
+
+    def set_log_level(self, component: str, level: int | str) -> None:
+        """Filter the component's records in the worker from the next iteration on."""
+        info = self._component(component)
+        number = LogLevel[level.upper()] if isinstance(level, str) else int(level)
+        with self._update_lock:
+            info["log_level"] = number
+            self._post((LOG_LEVEL, str(info["name"]), ""), number)
+
+    def _component(self, name: str) -> dict[str, Any]:
+        full = name if name.startswith("/") else "/" + name
+        info = self.components.get(full)
+        if info is None:
+            known = ", ".join(self.components) or "none"
+            raise RtcfError(f"component {full!r} is not loaded (loaded: {known})")
+        return info
+
+    def _post(self, key: tuple[int, str, str], value: Any) -> None:
+        # the newest value of each key wins; older ones still waiting are replaced
+        self._backlog.pop(key, None)
+        self._backlog[key] = encode_update(key[0], key[1], key[2], value)
+        self._send_backlog()
+
+    def _send_backlog(self) -> None:
+        ring = self._update_ring
+        if ring is None:
+            return
+        for key in list(self._backlog):
+            if not ring.push(self._backlog[key]):
+                return  # full: pump() tries again; the worker takes them between iterations
+            del self._backlog[key]
 
     def activate(self) -> None:
         self.call("activate")
@@ -411,6 +499,10 @@ class WorkerRunner:
         if self._log_ring is not None:
             self._log_ring.close()
             self._log_ring = None
+        if self._update_ring is not None:
+            with self._update_lock:
+                self._update_ring.close()
+                self._update_ring = None
         if self._clock_box is not None:
             self._clock_box.close()
             self._clock_box = None
@@ -433,6 +525,11 @@ class Bridge(Protocol):
     def log(self, rec: LogRecord) -> None: ...
 
     def follow_clock(self, box: Mailbox) -> None: ...
+
+    def component_loaded(self, info: dict[str, Any], runner: WorkerRunner) -> None:
+        """A component was loaded: show it (a node of its own name, its parameters)."""
+
+    def component_unloaded(self, name: str) -> None: ...
 
     def diagnostics(
         self, runner: str, status: LiveStatus, aggregate: TimingAggregate

@@ -36,6 +36,7 @@ from ._realtime import FrozenGC, RealtimeReport, apply_realtime
 from ._runner import ComponentSpec, Runner
 from ._settings import RunnerSettings
 from ._trace import Trace
+from ._tunables import UpdateReader
 
 # words of the control segment (int64 each)
 CTL_STOP = 0  # non-zero: the loop ends after the current iteration (the supervisor writes it)
@@ -82,6 +83,8 @@ class Worker:
         self.runner: Runner | None = None
         self.segments: list[Segment] = []
         self.log_writer: LogWriter | None = None
+        self.updates: UpdateReader | None = None  # tunable values and log levels
+        self._update_ring: Ring | None = None
         self.clock_box: Mailbox | None = None
         self.stop: StopFlag | None = None
         self.settings = RunnerSettings()
@@ -98,6 +101,7 @@ class Worker:
             "activate": self.activate,
             "deactivate": self.deactivate,
             "describe": self.describe,
+            "describe_component": self.describe_component,
             "prepare": self.prepare,
             "run": self.run,
             "shutdown": self.shutdown,
@@ -110,6 +114,8 @@ class Worker:
                 return 3
             handler = handlers.get(command)
             try:
+                if self.updates is not None:  # what was set while no loop ran
+                    self.updates()
                 if handler is None:
                     raise RtcfError(f"the worker does not know the command {command!r}")
                 value = handler(*args)
@@ -138,6 +144,7 @@ class Worker:
         sys_path: list[str],
         control: str,
         log: str,
+        updates: str,
         settings: RunnerSettings,
         parameters: dict[str, Any],
         name: str,
@@ -150,6 +157,7 @@ class Worker:
         log_seg = self._attach(log)
         self.stop = StopFlag(control_seg.buf.cast("q")[CTL_STOP : CTL_STOP + 1])
         self.log_writer = writer = LogWriter(Ring.open(log_seg.buf))
+        self._update_ring = Ring.open(self._attach(updates).buf)
         self.settings = settings
         self.simulated = simulated
         store = ParameterStore()
@@ -179,6 +187,7 @@ class Worker:
             log_emit=emit,
             stop_flag=self.stop,
         )
+        self.updates = UpdateReader(self._update_ring, self.runner.apply_update)
         return {"pid": os.getpid(), "python": sys.version.split()[0]}
 
     def _attach(self, name: str) -> Segment:
@@ -186,9 +195,13 @@ class Worker:
         self.segments.append(seg)
         return seg
 
-    def load(self, spec: ComponentSpec) -> str:
-        self._runner().load(spec)
-        return spec.full_name
+    def load(self, spec: ComponentSpec) -> dict[str, Any]:
+        runner = self._runner()
+        runner.load(spec)
+        return runner.describe_component(spec.full_name)
+
+    def describe_component(self, name: str) -> dict[str, Any]:
+        return self._runner().describe_component(name)
 
     def unload(self, name: str) -> None:
         self._runner().unload(name)
@@ -241,7 +254,7 @@ class Worker:
                     iterations,
                     timing_ring=ring,
                     on_iteration=trace.sample if trace else None,
-                    feeders=bridge.feeders if bridge else (),
+                    feeders=(self._updates(), *(bridge.feeders if bridge else ())),
                 )
             realtime = self.realtime.to_dict()
         finally:
@@ -266,6 +279,11 @@ class Worker:
             "oversize": oversize,
         }
 
+    def _updates(self) -> UpdateReader:
+        if self.updates is None:
+            raise RtcfError("the worker has not been set up (no hello)")
+        return self.updates
+
     def shutdown(self) -> list[dict[str, Any]]:
         errors: list[dict[str, Any]] = []
         if self.runner is not None:
@@ -277,6 +295,8 @@ class Worker:
     def close(self) -> None:
         if self.log_writer is not None:
             self.log_writer.release()
+        if self._update_ring is not None:
+            self._update_ring.close()
         if self.clock_box is not None:
             self.clock_box.close()
         if self.stop is not None:

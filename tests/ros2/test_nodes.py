@@ -186,3 +186,40 @@ def test_two_runners_share_one_graph(ros_node):
         end(a1, b1, a2, b2)
     finally:
         end(r1, r2)
+
+
+def test_a_launchers_node_tunes_its_component_in_the_runner(ros_node):
+    """The launcher's node is the component's face: set_parameters and logger levels on it
+    reach the worker of its runner."""
+    from rcl_interfaces.msg import LoggerLevel
+    from rcl_interfaces.srv import SetLoggerLevels, SetParameters
+
+    from .test_parameters import call
+
+    r = runner("tune_runner")
+    wait_for(r, "ready", 30)
+    args = ["rtcf_ros2_components", "Tuned", "--ros-args", "-r", "__node:=tl",
+            "-r", "in:=/ros/tl_in", "-r", "out:=/ros/tl_out",
+            "-p", "runner:=/tune_runner", "-p", "gain:=4.0"]
+    la = start("rt_launcher", *args)
+    wait_for(la, "loaded into", 30)
+    got = []
+    ros_node.create_subscription(Float64, "/ros/tl_out", lambda m: got.append(m.data), 10)
+    pub = ros_node.create_publisher(Float64, "/ros/tl_in", 10)
+
+    def publish():
+        pub.publish(Float64(data=2.0))
+
+    assert spin_until(ros_node, lambda: bool(got) and got[-1] == 8.0, publish=publish), got[-3:]
+    req = SetParameters.Request(parameters=[
+        Parameter(name="gain", value=PyParameter("gain", value=0.5).get_parameter_value())
+    ])
+    assert call(ros_node, SetParameters, "/tl/set_parameters", req).results[0].successful
+    assert spin_until(ros_node, lambda: got[-1] == 1.0, publish=publish), got[-3:]
+    req = SetParameters.Request(parameters=[
+        Parameter(name="mode", value=PyParameter("mode", value="cube").get_parameter_value())
+    ])
+    result = call(ros_node, SetParameters, "/tl/set_parameters", req).results[0]
+    assert not result.successful and "not one of" in result.reason
+    levels = SetLoggerLevels.Request(levels=[LoggerLevel(name="tl", level=40)])
+    assert call(ros_node, SetLoggerLevels, "/tl/set_logger_levels", levels).results[0].successful
