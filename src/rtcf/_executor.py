@@ -144,7 +144,7 @@ class Executor:
                     t = t1
                 k = -1
                 row[b + COL_ITERATION] = i
-                row[b + COL_SCHEDULED] = deadline - origin
+                row[b + COL_SCHEDULED] = deadline
                 row[b + COL_JITTER] = t0 - deadline
                 row[b + COL_CALC] = t - t0
                 deadline += period

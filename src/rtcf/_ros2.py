@@ -8,8 +8,15 @@ start of its next iteration. ROS message classes cross as serialized bytes (raw
 publish and raw subscriptions); float, int, bool and str become std_msgs Float64,
 Int64, Bool and String, and a 1-D float numpy array Float64MultiArray.
 
-QoS: reliable, keep last 10, volatile: what ``ros2 topic pub/echo`` use by default,
-so the usual tools connect.
+QoS of the mapped topics: the runner's ``ros_qos_depth``, ``ros_qos_reliability``
+and ``ros_qos_durability``; by default reliable, keep last 10, volatile: what
+``ros2 topic pub/echo`` use by default, so the usual tools connect.
+
+``~/iteration_info`` carries one std_msgs/Float64MultiArray per iteration, built
+from the timing rows: ``[iteration, stamp (s), calculation duration (s), wake-up
+jitter (s)]`` (the original's rtcf_msgs/IterationInfo with standard types; the
+layout's labels name the columns). It is serialized here by hand from a template,
+so that 2 kHz of it costs the supervisor little.
 """
 
 from __future__ import annotations
@@ -17,6 +24,7 @@ from __future__ import annotations
 import importlib
 import struct
 import threading
+import time
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
@@ -25,12 +33,13 @@ from ._errors import RtcfError
 from ._log import LogLevel, LogRecord
 from ._port_channels import MappedPort, read_record
 from ._ros2_face import ComponentFace, ros_logger_name
-from ._timing import TimingAggregate
+from ._settings import RunnerSettings
+from ._timing import COL_CALC, COL_ITERATION, COL_JITTER, COL_SCHEDULED, TimingAggregate
 
 if TYPE_CHECKING:
     from ._supervisor import LiveStatus, WorkerRunner
 
-QOS_DEPTH = 10
+ITERATION_INFO_LABELS = ("iteration", "stamp", "calc_duration", "jitter")
 SPIN_TIMEOUT_S = 0.0005  # how long the bridge thread waits for ROS events per turn
 
 _STD = {
@@ -140,9 +149,57 @@ class Ros2Bridge:
         self._subscriptions: list[Any] = []
         self._publishers: list[Any] = []
         self._faces: dict[str, ComponentFace] = {}  # a node per component
+        self._qos: Any = 10
+        self._info_pub: Any = None
+        self._info_prefix = b""
+        self._use_sim_time = False
+        self._info_offset = 0
         self._running = True
         self._thread = threading.Thread(target=self._spin, name="rtcf-ros2", daemon=True)
         self._thread.start()
+
+    def configure(self, settings: RunnerSettings) -> None:
+        """The runner's QoS for mapped topics and its iteration_info topic."""
+        from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+
+        self._qos = QoSProfile(
+            depth=settings.ros_qos_depth,
+            reliability=ReliabilityPolicy.RELIABLE
+            if settings.ros_qos_reliability == "reliable"
+            else ReliabilityPolicy.BEST_EFFORT,
+            durability=DurabilityPolicy.TRANSIENT_LOCAL
+            if settings.ros_qos_durability == "transient_local"
+            else DurabilityPolicy.VOLATILE,
+        )
+        self._use_sim_time = settings.use_sim_time
+        # the rows hold CLOCK_MONOTONIC ns (or /clock ns); stamps are ROS time. Taken
+        # once, so that stamps are exactly one period apart
+        self._info_offset = 0
+        if not settings.use_sim_time:
+            self._info_offset = self.node.get_clock().now().nanoseconds - time.monotonic_ns()
+        if settings.iteration_info and self._info_pub is None:
+            from std_msgs.msg import Float64MultiArray
+
+            self._info_prefix = _iteration_info_prefix()
+            self._info_pub = self.node.create_publisher(
+                Float64MultiArray, "~/iteration_info", 100
+            )
+
+    def iteration_info(self, rows: Any) -> None:
+        """One message per timing row (called by the supervisor as it drains the rows)."""
+        pub = self._info_pub
+        if pub is None:
+            return
+        offset = self._info_offset
+        prefix = self._info_prefix
+        pack = _FOUR_DOUBLES.pack
+        for row in rows.tolist():
+            pub.publish(prefix + pack(
+                float(row[COL_ITERATION]),
+                (row[COL_SCHEDULED] + offset) * 1e-9,
+                row[COL_CALC] * 1e-9,
+                row[COL_JITTER] * 1e-9,
+            ))
 
     # -- per run -------------------------------------------------------------------
     def open(self, ports: list[MappedPort], channels: dict[str, Ring | Mailbox]) -> None:
@@ -153,7 +210,7 @@ class Ros2Bridge:
                 channel = channels[port.topic]
                 if port.direction == "output":
                     assert isinstance(channel, Ring)
-                    pub = self.node.create_publisher(cls, port.topic, QOS_DEPTH)
+                    pub = self.node.create_publisher(cls, port.topic, self._qos)
                     self._publishers.append(pub)
                     kind = port.kind
 
@@ -168,7 +225,7 @@ class Ros2Bridge:
                             cls,
                             port.topic,
                             self._feeder(port, channel),
-                            QOS_DEPTH,
+                            self._qos,
                             raw=port.kind == "ros2",
                         )
                     )
@@ -324,6 +381,28 @@ class Ros2Bridge:
         self.node.destroy_node()
         if self._owns_context:
             self._rclpy.shutdown(context=self.context)
+
+
+_FOUR_DOUBLES = struct.Struct("<4d")
+
+
+def _iteration_info_prefix() -> bytes:
+    """The CDR bytes of an iteration_info message before its four doubles.
+
+    Made by serializing a template and checked by a round trip, so a change of the
+    serialization cannot go unnoticed.
+    """
+    from rclpy.serialization import deserialize_message, serialize_message
+    from std_msgs.msg import Float64MultiArray, MultiArrayDimension
+
+    msg = Float64MultiArray()
+    msg.layout.dim = [MultiArrayDimension(label=",".join(ITERATION_INFO_LABELS), size=4, stride=4)]
+    msg.data = [0.0] * 4
+    prefix = serialize_message(msg)[: -_FOUR_DOUBLES.size]
+    probe = deserialize_message(prefix + _FOUR_DOUBLES.pack(1.0, 2.0, 3.0, 4.0), Float64MultiArray)
+    if list(probe.data) != [1.0, 2.0, 3.0, 4.0]:
+        raise RtcfError("iteration_info: the CDR template does not round-trip")
+    return prefix
 
 
 def _log_class() -> type:

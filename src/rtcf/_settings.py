@@ -10,6 +10,8 @@ from typing import Any
 from ._errors import ConfigurationError
 
 MODES = ("wait_for_components", "no_wait", "wait_for_trigger")
+RELIABILITIES = ("reliable", "best_effort")
+DURABILITIES = ("volatile", "transient_local")
 WAIT_POLICIES = ("absolute", "relative")
 DEFAULT_FREQUENCY = 1.0
 
@@ -27,6 +29,9 @@ class RunnerSettings:
     re-anchors the grid after an overrun: the next start is one period after it ended.
     ``ros_mapping_whitelist``/``ros_mapping_blacklist``: full-match regexes on topic
     names that choose the ports mapped to middleware topics.
+    ``ros_qos_depth``/``ros_qos_reliability``/``ros_qos_durability``: the QoS of the
+    mapped topics (ROS 1 uses the depth as queue_size and transient_local as latch).
+    ``iteration_info``: publish ``~/iteration_info`` (one message per iteration).
     """
 
     mode: str = "no_wait"
@@ -41,6 +46,11 @@ class RunnerSettings:
     cpu_affinity_mask: int = 0  # 0: leave the affinity as it is
     priority: int = 80
     use_sim_time: bool = False  # the loop follows the middleware's /clock
+    # what ``ros2 topic pub/echo`` use by default, so the usual tools connect
+    ros_qos_depth: int = 10
+    ros_qos_reliability: str = "reliable"
+    ros_qos_durability: str = "volatile"
+    iteration_info: bool = True
     notes: list[str] = field(default_factory=list, compare=False)
 
     def __post_init__(self) -> None:
@@ -77,6 +87,18 @@ class RunnerSettings:
         for key in ("safe_heap_size_kB", "safe_stack_size_kB", "cpu_affinity_mask"):
             if getattr(self, key) < 0:
                 raise bad(f"{key} must not be negative")
+        if self.ros_qos_depth < 1:
+            raise bad(f"ros_qos_depth {self.ros_qos_depth} must be at least 1")
+        if self.ros_qos_reliability not in RELIABILITIES:
+            raise bad(
+                f"ros_qos_reliability {self.ros_qos_reliability!r} is unknown; "
+                "use reliable or best_effort"
+            )
+        if self.ros_qos_durability not in DURABILITIES:
+            raise bad(
+                f"ros_qos_durability {self.ros_qos_durability!r} is unknown; "
+                "use volatile or transient_local"
+            )
         if not 1 <= self.priority <= 99:
             raise bad(f"priority {self.priority} is out of range; SCHED_FIFO takes 1 to 99")
 
@@ -164,6 +186,10 @@ _CONVERTERS = {
     "cpu_affinity_mask": _to_int,
     "priority": _to_int,
     "use_sim_time": _to_bool,
+    "ros_qos_depth": _to_int,
+    "ros_qos_reliability": _to_str,
+    "ros_qos_durability": _to_str,
+    "iteration_info": _to_bool,
 }
 _EXPECTED = {
     "mode": "a string",
@@ -178,6 +204,10 @@ _EXPECTED = {
     "cpu_affinity_mask": "an integer bit mask",
     "priority": "an integer",
     "use_sim_time": "true or false",
+    "ros_qos_depth": "an integer",
+    "ros_qos_reliability": "reliable or best_effort",
+    "ros_qos_durability": "volatile or transient_local",
+    "iteration_info": "true or false",
 }
 # parameters a runner node may carry that are not settings
 _IGNORED: set[str] = set()

@@ -113,6 +113,8 @@ class WorkerRunner:
 
     # -- process ---------------------------------------------------------------
     def start(self) -> WorkerRunner:
+        if self.bridge is not None:
+            self.bridge.configure(self.settings)
         control = self._segment(CLOCK_MAILBOX_OFFSET + Mailbox.nbytes(8))
         self._control = control
         self._ctl = control.buf[:CLOCK_MAILBOX_OFFSET].cast("q")
@@ -395,6 +397,8 @@ class WorkerRunner:
         ring = Ring.create(seg.buf, capacity, row_size(len(schedule)))
         port_seg, channels = self._port_channels(ports)
         aggregate = TimingAggregate()
+        if self.bridge is not None and self.settings.iteration_info:
+            aggregate.on_rows = self.bridge.iteration_info
         self._timing = (ring, schedule, aggregate)
         self._events.pop("started", None)
         try:
@@ -518,7 +522,13 @@ class WorkerRunner:
 class Bridge(Protocol):
     """A middleware bridge in the supervisor (ROS 2, ROS 1): topics for mapped ports."""
 
+    def configure(self, settings: RunnerSettings) -> None:
+        """The runner's settings (QoS, iteration_info), before anything else."""
+
     def open(self, ports: list[MappedPort], channels: dict[str, Ring | Mailbox]) -> None: ...
+
+    def iteration_info(self, rows: Any) -> None:
+        """Timing rows as they are drained (numpy int64, one row per iteration)."""
 
     def close_run(self) -> None: ...
 

@@ -24,7 +24,8 @@ if TYPE_CHECKING:  # the worker never imports numpy: its BLAS would start thread
 
 QUANTILES = (("p50", 0.5), ("p90", 0.9), ("p99", 0.99), ("p999", 0.999))
 
-# columns of a timing row; the components' calculation times follow
+# columns of a timing row; the components' calculation times follow. The scheduled
+# start is on the loop's clock: CLOCK_MONOTONIC ns, or /clock ns under use_sim_time.
 COL_ITERATION, COL_SCHEDULED, COL_JITTER, COL_CALC, COL_OVERRAN = range(5)
 FIXED_COLUMNS = 5
 
@@ -109,6 +110,7 @@ class TimingAggregate:
         self.overruns = 0  # among the aggregated rows
         self.dropped = 0  # rows the loop could not write (ring full), from finished rings
         self.last_iteration = -1
+        self.on_rows: Any = None  # called with every batch of rows (numpy int64, n x columns)
 
     def consume(self, ring: Ring, components: Sequence[str]) -> int:
         """Aggregate every row waiting in ``ring``; return how many."""
@@ -136,6 +138,8 @@ class TimingAggregate:
             self.last_iteration = int(rows[-1, COL_ITERATION])
             self.rows += n
             total += n
+            if self.on_rows is not None:
+                self.on_rows(rows)
         return total
 
     def finish(self, ring: Ring, components: Sequence[str]) -> None:

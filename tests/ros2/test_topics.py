@@ -141,3 +141,53 @@ def test_a_port_type_that_cannot_cross_is_a_clear_error(tmp_path):
     assert len(lines) == 1, err
     assert "/d.out" in lines[0] and "/ros/d" in lines[0] and "dict" in lines[0]
     assert "Traceback" not in err
+
+
+def test_qos_of_mapped_topics_is_the_runners(ros_node, tmp_path):
+    from rclpy.qos import DurabilityPolicy, ReliabilityPolicy
+
+    path = tmp_path / "qos.launch"
+    path.write_text(
+        textwrap.dedent(
+            """\
+            <launch>
+              <node name="rt_runner" pkg="rtcf" type="rt_runner">
+                <param name="mode" value="no_wait"/>
+                <param name="frequency" value="100.0"/>
+                <param name="ros_mapping_whitelist" value="/ros/.*"/>
+                <param name="ros_qos_reliability" value="best_effort"/>
+                <param name="ros_qos_durability" value="transient_local"/>
+                <param name="ros_qos_depth" value="3"/>
+              </node>
+              <node name="a" pkg="rtcf" type="rt_launcher" args="rtcf_ros2_components ScaleMsg">
+                <remap from="in" to="/ros/qin"/>
+                <remap from="out" to="/ros/qout"/>
+              </node>
+            </launch>
+            """
+        )
+    )
+    proc = start_rtcf("launch", path, "--middleware", "ros2")
+    try:
+        wait_running(proc)
+        assert spin_until(ros_node, lambda: ros_node.count_publishers("/ros/qout") > 0)
+        (pub,) = ros_node.get_publishers_info_by_topic("/ros/qout")
+        assert pub.qos_profile.reliability == ReliabilityPolicy.BEST_EFFORT
+        assert pub.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL
+        (sub,) = ros_node.get_subscriptions_info_by_topic("/ros/qin")
+        assert sub.qos_profile.reliability == ReliabilityPolicy.BEST_EFFORT
+    finally:
+        if proc.poll() is None:
+            stop(proc)
+
+
+def test_a_bad_qos_setting_is_a_clear_error(tmp_path):
+    path = tmp_path / "badqos.launch"
+    path.write_text(
+        '<launch><node name="rt_runner" pkg="rtcf" type="rt_runner">'
+        '<param name="ros_qos_reliability" value="sometimes"/></node></launch>'
+    )
+    proc = start_rtcf("launch", path, "--middleware", "ros2")
+    _, err = proc.communicate(timeout=60)
+    assert proc.returncode != 0
+    assert "ros_qos_reliability 'sometimes' is unknown; use reliable or best_effort" in err
