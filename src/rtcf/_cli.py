@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import json
 import logging
 import os
 import signal
@@ -383,6 +384,18 @@ def _restore_handlers(previous: dict[int, Any]) -> None:
         signal.signal(sig, old)
 
 
+def cmd_introspect(ns: argparse.Namespace) -> int:
+    from ._introspection import render
+    from ._ros2 import fetch_introspection
+
+    data = fetch_introspection(ns.runner, ns.timeout)
+    if ns.json:
+        print(json.dumps(data, indent=2))
+        return 0
+    print(render(ns.command, data, getattr(ns, "name", None)))
+    return 0
+
+
 def build_parser() -> argparse.ArgumentParser:
     parser = argparse.ArgumentParser(
         prog="rtcf",
@@ -441,6 +454,25 @@ def build_parser() -> argparse.ArgumentParser:
     graph.add_argument("target", nargs="+", metavar="TARGET", help=target_help)
     graph.add_argument("--format", choices=["text", "dot", "mermaid"], default="text")
     graph.set_defaults(func=cmd_graph, log_level="warning")
+
+    for command, what, arg in (
+        ("component_list", "list the components of a running runner", None),
+        ("component_info", "a component's ports, parameters and log level", "COMPONENT"),
+        ("connection_list", "list the topics that connect components", None),
+        ("connection_info", "a topic's type, publishers, subscribers", "TOPIC"),
+        ("component_order", "the order the loop runs the components in", None),
+    ):
+        p = sub.add_parser(command, help=f"{what} (asks a running runner)")
+        if arg:
+            p.add_argument("name", metavar=arg)
+        p.add_argument("--runner", default="/rt_runner", help="the runner's node name "
+                       "(default /rt_runner)")
+        p.add_argument("--middleware", choices=["ros2"], default="ros2",
+                       help="how to reach the runner (default ros2)")
+        p.add_argument("--timeout", type=_positive_float, default=10.0, metavar="SECONDS")
+        p.add_argument("--json", action="store_true", help="print the raw data as JSON")
+        p.set_defaults(func=cmd_introspect, log_level="warning")
+        _add_debug(p)
 
     check = sub.add_parser("check", help="validate a launch file without running it")
     check.add_argument("target", nargs="+", metavar="TARGET", help=target_help)

@@ -22,6 +22,7 @@ so that 2 kHz of it costs the supervisor little.
 from __future__ import annotations
 
 import importlib
+import json
 import struct
 import threading
 import time
@@ -154,13 +155,26 @@ class Ros2Bridge:
         self._info_prefix = b""
         self._use_sim_time = False
         self._info_offset = 0
+        self._introspect_srv: Any = None
         self._running = True
         self._thread = threading.Thread(target=self._spin, name="rtcf-ros2", daemon=True)
         self._thread.start()
 
-    def configure(self, settings: RunnerSettings) -> None:
-        """The runner's QoS for mapped topics and its iteration_info topic."""
+    def configure(self, settings: RunnerSettings, runner: WorkerRunner) -> None:
+        """The runner's QoS for mapped topics, its iteration_info topic and its
+        ``~/introspect`` service (std_srvs/Trigger; the answer's message is JSON)."""
         from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+        from std_srvs.srv import Trigger
+
+        def on_introspect(request: Any, response: Any) -> Any:
+            response.success = True
+            response.message = json.dumps(runner.introspect())
+            return response
+
+        if self._introspect_srv is None:
+            self._introspect_srv = self.node.create_service(
+                Trigger, "~/introspect", on_introspect
+            )
 
         self._qos = QoSProfile(
             depth=settings.ros_qos_depth,
@@ -420,6 +434,41 @@ def _rosout_qos() -> Any:
         reliability=ReliabilityPolicy.RELIABLE,
         durability=DurabilityPolicy.TRANSIENT_LOCAL,
     )
+
+
+def fetch_introspection(runner: str, timeout_s: float = 10.0) -> dict[str, Any]:
+    """Ask a running runner (``rtcf launch --middleware ros2`` or rt_runner) what it holds."""
+    rclpy = _import_rclpy()
+    import os
+
+    from rclpy.node import Node
+    from std_srvs.srv import Trigger
+
+    context = rclpy.Context()
+    rclpy.init(context=context, signal_handler_options=_no_signals(rclpy))
+    try:
+        node = Node(f"_rtcf_cli_{os.getpid()}", context=context, start_parameter_services=False)
+        service = runner.rstrip("/") + "/introspect"
+        client = node.create_client(Trigger, service)
+        if not client.wait_for_service(timeout_sec=timeout_s):
+            raise RtcfError(
+                f"no runner answers at {service} within {timeout_s:g} s; is it running "
+                "(rtcf launch ... --middleware ros2, or rt_runner) in this ROS_DOMAIN_ID? "
+                "name it with --runner"
+            )
+        from rclpy.executors import SingleThreadedExecutor
+
+        future = client.call_async(Trigger.Request())
+        executor = SingleThreadedExecutor(context=context)
+        executor.add_node(node)
+        executor.spin_until_future_complete(future, timeout_sec=timeout_s)
+        result = future.result()
+        if result is None:
+            raise RtcfError(f"{service} did not answer within {timeout_s:g} s")
+        data: dict[str, Any] = json.loads(result.message)
+        return data
+    finally:
+        rclpy.try_shutdown(context=context)
 
 
 def _no_signals(rclpy: Any) -> Any:

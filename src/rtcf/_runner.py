@@ -243,6 +243,39 @@ class Runner:
             "log_level": comp.log.level,
         }
 
+    def introspect(self) -> dict[str, Any]:
+        """What the original's introspection scripts show: components with their ports,
+        connections with their publishers and subscribers and whether they reach the
+        middleware, and the execution order."""
+        maps = self.settings.maps_to_ros
+        connections: dict[str, dict[str, Any]] = {}
+        for full, entry in self._loaded.items():
+            comp = entry.component
+            roles = ((comp._rtcf_outputs, "publishers"), (comp._rtcf_inputs, "subscribers"))
+            for table, role in roles:
+                for port in table.values():
+                    c = connections.setdefault(port.topic, {
+                        "topic": port.topic,
+                        "type": type_name(port.type),
+                        "publishers": [],
+                        "subscribers": [],
+                        "ros": maps(port.topic),
+                    })
+                    c[role].append(full)
+        try:
+            order, problem = list(self.graph.order), ""
+        except RtcfError as exc:
+            order, problem = [], str(exc)
+        return {
+            "runner": self.name,
+            "frequency": self.settings.frequency,
+            "mode": self.settings.mode,
+            "components": [self.describe_component(n) for n in self._loaded],
+            "connections": [connections[t] for t in sorted(connections)],
+            "order": order,
+            "problem": problem,
+        }
+
     def set_parameter(self, component: str, name: str, value: Any) -> Any:
         """Validate and set a tunable parameter; returns the value as set.
 

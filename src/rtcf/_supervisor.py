@@ -106,6 +106,9 @@ class WorkerRunner:
         self.exit_reported = False
         # loaded components as tools see them (type, ports, parameters, tunables)
         self.components: dict[str, dict[str, Any]] = {}
+        # what the introspection commands show; refreshed by the main thread after
+        # loads and unloads, read by the bridge's service (which must not wait on it)
+        self.introspection: dict[str, Any] = {}
         # updates for the worker: the bridge thread sets, the main thread retries
         self._update_lock = threading.Lock()
         self._update_ring: Ring | None = None
@@ -114,7 +117,7 @@ class WorkerRunner:
     # -- process ---------------------------------------------------------------
     def start(self) -> WorkerRunner:
         if self.bridge is not None:
-            self.bridge.configure(self.settings)
+            self.bridge.configure(self.settings, self)
         control = self._segment(CLOCK_MAILBOX_OFFSET + Mailbox.nbytes(8))
         self._control = control
         self._ctl = control.buf[:CLOCK_MAILBOX_OFFSET].cast("q")
@@ -157,6 +160,7 @@ class WorkerRunner:
         )
         for seg in (control, log, updates):  # mapped by both: the names are no longer needed
             seg.unlink()
+        self.refresh_introspection()
         return self
 
     def _segment(self, size: int) -> Segment:
@@ -288,6 +292,7 @@ class WorkerRunner:
         full = str(info["name"])
         with self._update_lock:
             self.components[full] = info
+        self.refresh_introspection()
         if self.bridge is not None:
             self.bridge.component_loaded(info, self)
         return full
@@ -298,8 +303,25 @@ class WorkerRunner:
         with self._update_lock:
             self.components.pop(full, None)
             self._backlog = {k: v for k, v in self._backlog.items() if k[1] != full}
+        self.refresh_introspection()
         if self.bridge is not None:
             self.bridge.component_unloaded(full)
+
+    def refresh_introspection(self) -> dict[str, Any]:
+        data = dict(self.call("introspect"))
+        data["runner"] = self.name
+        with self._update_lock:
+            self.introspection = data
+        return data
+
+    def introspect(self) -> dict[str, Any]:
+        """The last introspection data, with the current tunable values and log levels."""
+        with self._update_lock:
+            data = dict(self.introspection)
+            data["components"] = [
+                self.components.get(c["name"], c) for c in data.get("components", [])
+            ]
+        return data
 
     # -- tuning while running (any thread) ---------------------------------------
     def tunable(self, component: str, name: str) -> TunableSpec:
@@ -522,8 +544,9 @@ class WorkerRunner:
 class Bridge(Protocol):
     """A middleware bridge in the supervisor (ROS 2, ROS 1): topics for mapped ports."""
 
-    def configure(self, settings: RunnerSettings) -> None:
-        """The runner's settings (QoS, iteration_info), before anything else."""
+    def configure(self, settings: RunnerSettings, runner: WorkerRunner) -> None:
+        """The runner's settings (QoS, iteration_info) and what introspection asks,
+        before anything else."""
 
     def open(self, ports: list[MappedPort], channels: dict[str, Ring | Mailbox]) -> None: ...
 

@@ -102,6 +102,7 @@ class Worker:
             "deactivate": self.deactivate,
             "describe": self.describe,
             "describe_component": self.describe_component,
+            "introspect": self.introspect,
             "prepare": self.prepare,
             "run": self.run,
             "shutdown": self.shutdown,
@@ -202,6 +203,9 @@ class Worker:
 
     def describe_component(self, name: str) -> dict[str, Any]:
         return self._runner().describe_component(name)
+
+    def introspect(self) -> dict[str, Any]:
+        return self._runner().introspect()
 
     def unload(self, name: str) -> None:
         self._runner().unload(name)

@@ -1,0 +1,79 @@
+"""The introspection commands' text, from Runner.introspect() in this process."""
+
+from __future__ import annotations
+
+import pytest
+
+from rtcf import Component, ComponentSpec, RtcfError, Runner, RunnerSettings, SimClock
+from rtcf._introspection import render
+
+
+class Source(Component):
+    def configure(self) -> None:
+        self.out = self.add_output("x", float)
+        self.k = self.params.declare("k", 3, description="steps", min=1, max=9)
+
+
+class Sink(Component):
+    def configure(self) -> None:
+        self.inp = self.add_input("x", float)
+        self.out = self.add_output("ros/y", float)
+
+    def update(self) -> None:
+        pass
+
+
+def data() -> dict:
+    r = Runner(RunnerSettings(ros_mapping_whitelist="/ns/ros/.*"), clock=SimClock())
+    r.load(ComponentSpec("sink", Sink, namespace="/ns"))
+    r.load(ComponentSpec("source", Source, namespace="/ns", params={"note": "hi"}))
+    return r.introspect()
+
+
+def test_lists_and_order() -> None:
+    d = data()
+    assert render("component_list", d).splitlines()[0].split() == [
+        "/ns/sink", f"{__name__}.Sink"
+    ]
+    assert render("component_order", d).splitlines() == ["1. /ns/source", "2. /ns/sink"]
+    lines = render("connection_list", d).splitlines()
+    assert lines == ["/ns/ros/y  builtins.float  ROS", "/ns/x      builtins.float"]
+
+
+def test_infos() -> None:
+    d = data()
+    info = render("component_info", d, "ns/source")
+    assert "    x -> /ns/x  [builtins.float]" in info
+    assert "    note: 'hi'" in info
+    assert "    k = 3  (int, 1..9)  steps" in info
+    assert info.endswith("log level: info")
+    conn = render("connection_info", d, "/ns/x")
+    assert conn.splitlines() == [
+        "/ns/x  [builtins.float]",
+        "  publishers: /ns/source",
+        "  subscribers: /ns/sink",
+        "  mapped to ROS: no",
+    ]
+
+
+def test_unknown_names_say_what_exists() -> None:
+    d = data()
+    with pytest.raises(RtcfError, match=r"no component '/ns/x' .*loaded: /ns/sink, /ns/source"):
+        render("component_info", d, "/ns/x")
+    with pytest.raises(RtcfError, match=r"no connection '/q' .*topics: /ns/ros/y, /ns/x"):
+        render("connection_info", d, "q")
+
+
+def test_a_cycle_is_reported_not_an_order() -> None:
+    class Loop(Component):
+        def configure(self) -> None:
+            self.add_input("a", float)
+            self.add_output("b", float)
+
+    r = Runner(RunnerSettings(), clock=SimClock())
+    r.load(ComponentSpec("one", Loop))
+    r.load(ComponentSpec("two", Loop, remaps={"a": "b", "b": "a"}))
+    d = r.introspect()
+    assert d["order"] == [] and "cycle" in d["problem"]
+    with pytest.raises(RtcfError, match=r"no order: .*cycle"):
+        render("component_order", d)
