@@ -329,9 +329,9 @@ def launcher_main(argv: list[str] | None = None) -> int:
         if key not in _RESERVED and key not in ("rt_package", "rt_type"):
             values[f"param.{key}"] = value
 
-    def request(service: str, vals: dict[str, Any]) -> tuple[bool, str]:
+    def request(service: str, vals: dict[str, Any], wait_s: float = 30.0) -> tuple[bool, str]:
         client = node.create_client(SetParametersAtomically, f"{runner}/{service}")
-        if not client.wait_for_service(timeout_sec=30.0):
+        if not client.wait_for_service(timeout_sec=wait_s):
             return False, f"no runner answers at {runner}/{service}"
         req = SetParametersAtomically.Request()
         req.parameters = [
@@ -379,8 +379,9 @@ def launcher_main(argv: list[str] | None = None) -> int:
                 status = 1
                 break
     if status == 0:
-        ok, reason = request("unload_component", {"name": values["namespace"].rstrip("/")
-                                                  + "/" + values["name"]})
+        # a runner stopped at the same time (Ctrl-C to both) is not waited for long
+        full = values["namespace"].rstrip("/") + "/" + values["name"]
+        ok, reason = request("unload_component", {"name": full}, wait_s=5.0)
         if not ok:
             _say(who, f"warning: unload refused: {reason}")
     face.close()
