@@ -45,9 +45,11 @@ def spin_until(node, predicate, timeout=15.0, publish=None):
         executor.remove_node(node)
 
 
-def test_sum_test_outputs_three_times_the_input(ros_node):
-    """The original's SumTest: two chained sums in /rtcf, through real ROS 2 topics."""
-    proc = start_rtcf("launch", "rtcf_examples", "sum_test.launch", "--middleware", "ros2")
+@pytest.mark.parametrize("launch_file", ["sum_test.launch", "sum_test.launch.xml"])
+def test_sum_test_outputs_three_times_the_input(ros_node, launch_file):
+    """The original's SumTest: two chained sums in /rtcf, through real ROS 2 topics; from
+    the ROS 1-style file and from its ROS 2 launch XML twin."""
+    proc = start_rtcf("launch", "rtcf_examples", launch_file, "--middleware", "ros2")
     try:
         wait_running(proc)
         got = []
