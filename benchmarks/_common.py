@@ -270,8 +270,12 @@ def launch_xml(
     priority: int = PRIORITY,
     lock_memory: bool = True,
     wait_policy: str = "absolute",
+    runner_params: Mapping[str, str] | None = None,
 ) -> str:
-    """A ROS 1 launch file with one rt_runner and the given rt_launcher nodes."""
+    """A ROS 1 launch file with one rt_runner and the given rt_launcher nodes.
+
+    ``runner_params``: more rt_runner parameters, as raw rosparam texts.
+    """
     lines = [
         "<launch>",
         '    <node name="rt_runner" pkg="rtcf" type="rt_runner" output="screen">',
@@ -281,6 +285,10 @@ def launch_xml(
         f'        <rosparam param="priority">{priority}</rosparam>',
         f'        <rosparam param="lock_memory">{lock_memory}</rosparam>',
         f'        <rosparam param="cpu_affinity_mask">{1 << cpu}</rosparam>',
+        *(
+            f'        <rosparam param="{k}">{v}</rosparam>'
+            for k, v in (runner_params or {}).items()
+        ),
         "    </node>",
     ]
     for n in nodes:

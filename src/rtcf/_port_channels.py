@@ -30,8 +30,8 @@ class MappedPort:
 
     direction: str  # "output" (published) or "input" (subscribed)
     topic: str
-    type_name: str  # "std_msgs/msg/Float64" or "builtins.float"
-    kind: str  # the codec: float, int, bool, str, float_array, ros2
+    type_name: str  # "std_msgs/msg/Float64" (ROS 2), "std_msgs/Float64" (ROS 1), "builtins.float"
+    kind: str  # the codec: float, int, bool, str, float_array, ros2, ros1
     max_size: int
     offset: int = 0  # in the run's port segment
     nbytes: int = 0
