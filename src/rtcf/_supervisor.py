@@ -136,6 +136,11 @@ class WorkerRunner:
         updates = self._segment(Ring.nbytes(UPDATE_RING_RECORDS, UPDATE_RECORD_SIZE))
         self._update_ring = Ring.create(updates.buf, UPDATE_RING_RECORDS, UPDATE_RECORD_SIZE)
         ours, theirs = socket.socketpair(socket.AF_UNIX, socket.SOCK_STREAM)
+        # blocking whatever socket.setdefaulttimeout() says: rospy sets a process-wide
+        # timeout, which makes new sockets non-blocking underneath, and the worker would
+        # read EAGAIN on its control channel as the end of it
+        ours.setblocking(True)
+        theirs.setblocking(True)
         try:
             self.process = subprocess.Popen(
                 [sys.executable, "-m", "rtcf._worker", str(theirs.fileno()), str(os.getpid())],
