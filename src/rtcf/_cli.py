@@ -289,6 +289,12 @@ def cmd_launch(ns: argparse.Namespace) -> int:
 def _bridge(middleware: str, runner_name: str) -> Bridge | None:
     if middleware == "none":
         return None
+    if middleware == "ros1":
+        from ._ros1 import Ros1Bridge
+
+        ros1 = Ros1Bridge(basename(runner_name), namespace_of(runner_name))
+        _say(f"middleware ros1: node {runner_name}")
+        return ros1
     from ._ros2 import Ros2Bridge
 
     bridge = Ros2Bridge(basename(runner_name), namespace_of(runner_name))
@@ -432,7 +438,7 @@ def build_parser() -> argparse.ArgumentParser:
     launch.add_argument("--quiet", action="store_true", help="no live status line on a terminal")
     launch.add_argument(
         "--middleware",
-        choices=["none", "ros2"],
+        choices=["none", "ros2", "ros1"],
         default="none",
         help="map whitelisted ports to topics of this middleware (default none)",
     )

@@ -302,6 +302,13 @@ class WorkerRunner:
             self.bridge.component_loaded(info, self)
         return full
 
+    def set_parameters(self, values: dict[str, Any]) -> None:
+        """Set absolute parameters in the worker's tree (components read them at
+        configure): a middleware's parameter server, fetched before a load."""
+        for name, value in values.items():
+            self.parameters.set(name, value)
+        self.call("set_parameters", values)
+
     def unload(self, name: str) -> None:
         full = name if name.startswith("/") else "/" + name
         self.call("unload", full)

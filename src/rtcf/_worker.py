@@ -103,6 +103,7 @@ class Worker:
             "describe": self.describe,
             "describe_component": self.describe_component,
             "introspect": self.introspect,
+            "set_parameters": self.set_parameters,
             "prepare": self.prepare,
             "run": self.run,
             "shutdown": self.shutdown,
@@ -206,6 +207,12 @@ class Worker:
 
     def introspect(self) -> dict[str, Any]:
         return self._runner().introspect()
+
+    def set_parameters(self, values: dict[str, Any]) -> None:
+        """Set absolute parameters (a middleware's parameter server), for later loads."""
+        store = self._runner().parameters
+        for name, value in values.items():
+            store.set(name, value)
 
     def unload(self, name: str) -> None:
         self._runner().unload(name)

@@ -5,7 +5,7 @@ import os
 import pytest
 
 import rtcf_examples
-from rtcf import ComponentError, ComponentSpec, RunnerSettings
+from rtcf import ComponentError, ComponentSpec, RtcfError, RunnerSettings
 from rtcf._channels import leftover_segments
 from rtcf._log import LogRecord
 from rtcf._supervisor import WorkerDied, WorkerRunner
@@ -65,3 +65,49 @@ def test_a_killed_worker_is_an_error_at_the_next_command() -> None:
     finally:
         runner.close()
     assert leftover_segments(os.getpid()) == []
+
+
+def test_a_parameter_set_while_running_applies_between_two_iterations(monkeypatch) -> None:
+    """Two components read one tunable each; a change from another thread lands at an
+    iteration boundary: no iteration sees the old value in one component and the new
+    in the other, and every iteration after the change sees it."""
+    import threading
+    import time
+
+    from .conftest import FIXTURES
+
+    monkeypatch.syspath_prepend(str(FIXTURES))  # the worker imports from the same path
+    sink = Sink()
+    settings = RunnerSettings(frequency=200.0)
+    with WorkerRunner(settings, log_sink=sink, name="tuning") as runner:
+        runner.set_parameters({"/b/gain": 3.0})  # as a parameter server would hold it
+        runner.load(ComponentSpec("a", module="rtcf_test_components", class_name="TunedLogger"))
+        runner.load(ComponentSpec("b", module="rtcf_test_components", class_name="TunedLogger"))
+        assert runner.introspect()["components"][1]["tunables"][0]["value"] == 3.0
+        with pytest.raises(RtcfError, match=r"above its maximum 100\.0"):
+            runner.set_parameter("/a", "gain", 1000.0)
+
+        def change() -> None:
+            time.sleep(0.25)
+            runner.set_parameter("/a", "gain", 5.0)
+            runner.set_parameter("/b", "gain", 5.0)
+
+        t = threading.Thread(target=change)
+        t.start()
+        runner.run(120)  # 0.6 s
+        t.join()
+        runner.set_parameter("/a", "gain", 7.0)  # between runs: taken before the next
+        runner.run(2)
+        assert runner.shutdown() == []
+    seen: dict[int, dict[str, str]] = {}
+    for _, logger, text, iteration in sink.records:
+        if text.startswith("gain"):
+            seen.setdefault(iteration, {})[logger] = text.split()[1]
+    assert sorted(seen) == list(range(122))
+    first_new = min(i for i, v in seen.items() if v["/a"] == "5.0")
+    assert 0 < first_new < 119
+    for i in range(first_new, 120):
+        assert seen[i] == {"/a": "5.0", "/b": "5.0"}, (i, seen[i])
+    for i in range(first_new):
+        assert seen[i] == {"/a": "1.0", "/b": "3.0"}, (i, seen[i])
+    assert seen[120]["/a"] == "7.0" and seen[121]["/a"] == "7.0"
