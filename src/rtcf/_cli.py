@@ -392,9 +392,15 @@ def _restore_handlers(previous: dict[int, Any]) -> None:
 
 def cmd_introspect(ns: argparse.Namespace) -> int:
     from ._introspection import render
-    from ._ros2 import fetch_introspection
 
-    data = fetch_introspection(ns.runner, ns.timeout)
+    if ns.middleware == "ros1":
+        from ._ros1_nodes import fetch_introspection_ros1
+
+        data = fetch_introspection_ros1(ns.runner, ns.timeout)
+    else:
+        from ._ros2 import fetch_introspection
+
+        data = fetch_introspection(ns.runner, ns.timeout)
     if ns.json:
         print(json.dumps(data, indent=2))
         return 0
@@ -473,7 +479,7 @@ def build_parser() -> argparse.ArgumentParser:
             p.add_argument("name", metavar=arg)
         p.add_argument("--runner", default="/rt_runner", help="the runner's node name "
                        "(default /rt_runner)")
-        p.add_argument("--middleware", choices=["ros2"], default="ros2",
+        p.add_argument("--middleware", choices=["ros2", "ros1"], default="ros2",
                        help="how to reach the runner (default ros2)")
         p.add_argument("--timeout", type=_positive_float, default=10.0, metavar="SECONDS")
         p.add_argument("--json", action="store_true", help="print the raw data as JSON")

@@ -33,7 +33,15 @@ serialized here by hand from a template. ``~introspect`` (std_srvs/Trigger) answ
 with the runner's introspection data as JSON.
 
 A node per component, as the ROS 2 bridge makes, is impossible in one rospy process;
-the components' records still reach /rosout under their own names (see :meth:`log`).
+the components' records still reach /rosout under their own names (see :meth:`log`),
+and what tools need of a component lives in this node under the component's name
+(:mod:`rtcf._ros1_face`): a dynamic_reconfigure server for its tunable parameters
+and a logger ``ros.rtcf.<component>`` that rospy's ``~get_loggers`` and
+``~set_logger_level`` (rqt_logger_level) list and set, down to the worker.
+
+Parameters: at start (:meth:`share_parameters`) the parameter server's tree joins
+the runner's, and the runner's (a launch file's) goes to the server; the launch file
+wins where both set a name, as with roslaunch.
 """
 
 from __future__ import annotations
@@ -58,6 +66,7 @@ from ._settings import RunnerSettings
 from ._timing import COL_CALC, COL_ITERATION, COL_JITTER, COL_SCHEDULED, TimingAggregate
 
 if TYPE_CHECKING:
+    from ._ros1_face import ComponentFace
     from ._supervisor import LiveStatus, WorkerRunner
 
 ITERATION_INFO_LABELS = ("iteration", "stamp", "calc_duration", "jitter")
@@ -235,6 +244,7 @@ class Ros1Bridge:
         self._info_prefix = b""
         self._info_offset = 0
         self._introspect_srv: Any = None
+        self._faces: dict[str, ComponentFace] = {}  # per loaded component (_ros1_face)
         self._stop = threading.Event()
         _wait_for_connections([(self._rosout, "/rosout", "sub")], CONNECT_TIMEOUT_S)
         self._thread = threading.Thread(target=self._run, name="rtcf-ros1", daemon=True)
@@ -251,6 +261,7 @@ class Ros1Bridge:
 
         if self._introspect_srv is None:
             self._introspect_srv = rospy.Service("~introspect", Trigger, on_introspect)
+        self.share_parameters(runner)
         self._queue_size = settings.ros_qos_depth
         self._latch = settings.ros_qos_durability == "transient_local"
         # the rows hold CLOCK_MONOTONIC ns (or /clock ns); stamps are ROS time. Taken
@@ -264,6 +275,36 @@ class Ros1Bridge:
             self._info_prefix = _iteration_info_prefix()
             self._info_raw = raw_class(Float64MultiArray)()
             self._info_pub = rospy.Publisher("~iteration_info", Float64MultiArray, queue_size=100)
+
+    def share_parameters(self, runner: WorkerRunner) -> None:
+        """One parameter tree for the run and the ROS parameter server, before any load.
+
+        What the master's parameter server holds (``rosparam set``, another roslaunch)
+        joins the runner's tree, so components read it at configure time; then the
+        runner's tree (the launch file's parameters) goes to the server, as roslaunch
+        puts a launch file's parameters there. A name that both set keeps the launch
+        file's value, on both sides: the launch file wins, as with roslaunch.
+        """
+        rospy = self._rospy
+        store = runner.parameters
+        try:
+            server = rospy.get_param("/")
+        except Exception as exc:  # the master went away: the run says so soon enough
+            runner.log_sink(LogRecord(30, "rt_runner", f"parameter server: {exc}"))
+            server = {}
+        ours = store.names()
+        for name, value in _param_leaves(server if isinstance(server, dict) else {}):
+            if not _clashes(name, ours):
+                store.set(name, value)
+        for name in ours:
+            value = store.get(name)
+            try:
+                rospy.set_param(name, value)
+            except Exception as exc:  # None and other values XML-RPC cannot carry
+                runner.log_sink(LogRecord(
+                    30, "rt_runner", f"parameter {name} = {value!r} is not on the parameter "
+                    f"server ({type(exc).__name__}: {exc}); the components still read it"
+                ))
 
     def iteration_info(self, rows: Any) -> None:
         """One message per timing row (called by the supervisor as it drains the rows)."""
@@ -284,10 +325,26 @@ class Ros1Bridge:
             pub.publish(raw)
 
     def component_loaded(self, info: dict[str, Any], runner: WorkerRunner) -> None:
-        """Nothing yet: rospy has one node per process (an rt_launcher will be the face)."""
+        """Serve the component's tunables (a dynamic_reconfigure server under its name)
+        and its logger ``ros.rtcf.<component>`` (``~set_logger_level``): see _ros1_face."""
+        from ._ros1_face import ComponentFace, level_number
+
+        full = str(info["name"])
+        old = self._faces.pop(full, None)
+        if old is not None:
+            old.close()
+
+        def warn(text: str) -> None:
+            runner.log_sink(LogRecord(30, "rt_runner", text))
+
+        default = level_number(runner.log_level)
+        self._faces[full] = ComponentFace(info, runner, default, warn)
 
     def component_unloaded(self, name: str) -> None:
-        """Nothing yet (see :meth:`component_loaded`)."""
+        """Take the component's dynamic_reconfigure server off the graph."""
+        face = self._faces.pop(name, None)
+        if face is not None:
+            face.close()
 
     # -- per run -------------------------------------------------------------------
     def open(self, ports: list[MappedPort], channels: dict[str, Ring | Mailbox]) -> None:
@@ -486,6 +543,9 @@ class Ros1Bridge:
         for extra in (self._clock_sub, self._info_pub):
             if extra is not None:
                 extra.unregister()
+        for face in self._faces.values():
+            face.close()
+        self._faces.clear()
         if self._introspect_srv is not None:
             self._introspect_srv.shutdown()
         self._clock_sub = self._info_pub = self._introspect_srv = None
@@ -516,6 +576,26 @@ def _iteration_info_prefix() -> bytes:
     if list(probe.data) != [1.0, 2.0, 3.0, 4.0]:
         raise RtcfError("iteration_info: the ROS 1 template does not round-trip")
     return prefix
+
+
+def _param_leaves(tree: dict[str, Any], prefix: str = "") -> list[tuple[str, Any]]:
+    """The parameter server's tree as absolute leaf names and values."""
+    leaves: list[tuple[str, Any]] = []
+    for key, value in tree.items():
+        name = f"{prefix}/{key}"
+        if isinstance(value, dict) and value:
+            leaves.extend(_param_leaves(value, name))
+        elif not isinstance(value, dict):
+            leaves.append((name, value))
+    return leaves
+
+
+def _clashes(name: str, ours: list[str]) -> bool:
+    """Whether the leaf ``name`` is one of ``ours``, above one or below one."""
+    for leaf in ours:
+        if leaf == name or leaf.startswith(name + "/") or name.startswith(leaf + "/"):
+            return True
+    return False
 
 
 def _wait_for_connections(topics: list[tuple[Any, str, str]], timeout: float) -> None:

@@ -1,0 +1,504 @@
+"""``rt_runner`` and ``rt_launcher`` as ROS 1 nodes (what roslaunch starts).
+
+The executables are ``ros1/rtcf/rt_runner`` and ``ros1/rtcf/rt_launcher`` (a ROS
+package ``rtcf`` that roslaunch finds on ``ROS_PACKAGE_PATH``); they call
+:func:`runner_main` and :func:`launcher_main`. See docs/ros1.md.
+
+``rt_runner __name:=NAME`` is a rospy node whose private parameters (``~mode``,
+``~frequency``, ...) are the runner's settings. It serves, under its own name (so
+several runners share one master):
+
+* ``~load_component`` (``rtcf_msgs/LoadComponent``) and ``~unload_component``
+  (``rtcf_msgs/UnloadComponent``); a refusal answers ``success: false`` and says why;
+* ``~activate_rt_loop`` and ``~deactivate_rt_loop`` (``std_srvs/Trigger``), for mode
+  ``wait_for_trigger``;
+* ``~get_runner_info`` (``rtcf_msgs/GetRunnerInfo``): the original's introspection
+  message; ``~introspect`` (``std_srvs/Trigger``, JSON) comes from the bridge.
+
+Before each load it copies the parameter server's tree into the worker, so a
+component reads its private (``~gain``), namespace and absolute parameters as the
+original's node handles did. Requests are served by the main thread between runs,
+as with ROS 2 (``_ros2_nodes``).
+
+``rt_launcher PACKAGE TYPE [-f|--is_first] __name:=NAME from:=to ...`` (or the
+private parameters ``~rt_package``/``~rt_type``) asks its runner (``~runner``,
+default ``rt_runner`` in the launcher's namespace) to load the class as a component
+named like the launcher node, stays alive, and asks for the unload when it gets
+SIGINT or SIGTERM. The runner unloads the components of launchers that vanish
+(killed); a launcher whose runner vanishes exits with status 1 and a message.
+"""
+
+from __future__ import annotations
+
+import json
+import queue
+import signal
+import sys
+import threading
+import time
+import xmlrpc.client
+from types import FrameType
+from typing import Any
+
+from ._errors import RtcfError
+from ._executor import STOP
+from ._runner import ComponentSpec
+from ._settings import RunnerSettings
+
+WATCH_EVERY_S = 1.0
+MISSES_TO_GONE = 3  # a node is gone after this many failed look-ups in a row
+
+
+def _say(who: str, text: str) -> None:
+    print(f"{who}: {text}", file=sys.stderr, flush=True)
+
+
+def _msgs() -> tuple[Any, Any]:
+    try:
+        import rtcf_msgs.msg
+        import rtcf_msgs.srv
+    except ImportError as exc:
+        raise RtcfError(
+            f"rtcf_msgs is not generated ({exc}); run scripts/setup-ros1 (docs/ros1.md)"
+        ) from None
+    return rtcf_msgs.msg, rtcf_msgs.srv
+
+
+class _Request:
+    def __init__(self, kind: str, payload: Any) -> None:
+        self.kind = kind
+        self.payload = payload
+        self.done = threading.Event()
+        self.ok = False
+        self.reason = ""
+
+
+# -- presence on the master ------------------------------------------------------------
+
+
+class _Timeout(xmlrpc.client.Transport):
+    # never socket.setdefaulttimeout: the bridge needs the process default unchanged
+    def make_connection(self, host: Any) -> Any:
+        conn = super().make_connection(host)
+        conn.timeout = 2.0
+        return conn
+
+
+def node_alive(name: str, caller: str) -> bool:
+    """Whether ``name`` is registered on the master and its XML-RPC server answers.
+
+    A node killed with SIGKILL stays registered; its server no longer answers.
+    """
+    import rosgraph
+
+    try:
+        uri = rosgraph.Master(caller).lookupNode(name)
+    except Exception:  # unknown to the master, or the master is gone
+        return False
+    try:
+        proxy: Any = xmlrpc.client.ServerProxy(uri, transport=_Timeout())
+        code, _, _ = proxy.getPid(caller)
+        return bool(code == 1)
+    except Exception:
+        return False
+
+
+class _Watch:
+    """Counts failed look-ups per node; ``gone`` after MISSES_TO_GONE in a row."""
+
+    def __init__(self, caller: str) -> None:
+        self.caller = caller
+        self.missed: dict[str, int] = {}
+
+    def gone(self, name: str) -> bool:
+        if node_alive(name, self.caller):
+            self.missed[name] = 0
+            return False
+        self.missed[name] = self.missed.get(name, 0) + 1
+        return self.missed[name] >= MISSES_TO_GONE
+
+
+# -- the runner ------------------------------------------------------------------------
+
+
+def runner_main(argv: list[str] | None = None) -> int:
+    argv = list(sys.argv if argv is None else argv)
+    try:
+        msg, srv = _msgs()
+        from ._ros1 import Ros1Bridge, _import_rospy
+
+        rospy = _import_rospy()
+        bridge = Ros1Bridge("rt_runner", None, argv[1:])
+    except RtcfError as exc:
+        _say("rt_runner", f"error: {exc}")
+        return 1
+    from std_srvs.srv import Trigger, TriggerResponse
+
+    from ._supervisor import WorkerRunner
+
+    name = bridge.node_name
+    try:
+        settings = RunnerSettings.from_params(
+            _private_params(rospy), where=f"rt_runner {name}"
+        )
+    except RtcfError as exc:
+        _say(name, f"error: {exc}")
+        bridge.shutdown()
+        return 1
+    for note in getattr(settings, "notes", []):
+        _say(name, note)
+    requests: queue.Queue[_Request] = queue.Queue()
+    runner = WorkerRunner(settings, name=name, bridge=bridge)
+    launchers: dict[str, str] = {}  # component -> launcher node that asked for it
+    lock = threading.Lock()
+
+    def submit(kind: str, payload: Any, timeout: float = 30.0) -> _Request:
+        req = _Request(kind, payload)
+        requests.put(req)
+        runner.request_control()
+        if not req.done.wait(timeout):
+            req.reason = "the runner did not answer in time"
+        return req
+
+    def on_load(request: Any) -> Any:
+        req = submit("load", request)
+        return srv.LoadComponentResponse(success=req.ok, message=req.reason)
+
+    def on_unload(request: Any) -> Any:
+        req = submit("unload", str(request.name))
+        return srv.UnloadComponentResponse(success=req.ok, message=req.reason)
+
+    def trigger(kind: str) -> Any:
+        def on_trigger(request: Any) -> Any:
+            req = submit(kind, None)
+            return TriggerResponse(success=req.ok, message=req.reason)
+
+        return on_trigger
+
+    def on_info(request: Any) -> Any:
+        return srv.GetRunnerInfoResponse(runner_info=runner_info(msg, runner.introspect()))
+
+    services = [
+        rospy.Service("~load_component", srv.LoadComponent, on_load),
+        rospy.Service("~unload_component", srv.UnloadComponent, on_unload),
+        rospy.Service("~activate_rt_loop", Trigger, trigger("activate")),
+        rospy.Service("~deactivate_rt_loop", Trigger, trigger("deactivate")),
+        rospy.Service("~get_runner_info", srv.GetRunnerInfo, on_info),
+    ]
+    stopping = threading.Event()
+
+    def watch() -> None:  # a launcher killed with SIGKILL never asks for its unload
+        presence = _Watch(name)
+        while not stopping.wait(WATCH_EVERY_S):
+            with lock:
+                pairs = list(launchers.items())
+            for component, launcher in pairs:
+                if launcher and presence.gone(launcher):
+                    with lock:
+                        launchers.pop(component, None)
+                    _say(name, f"launcher {launcher} is gone; unloading {component}")
+                    requests.put(_Request("unload", component))
+                    runner.request_control()
+
+    watcher = threading.Thread(target=watch, name="rtcf-ros1-watch", daemon=True)
+
+    def handler(signum: int, frame: FrameType | None) -> None:
+        runner.request_stop()
+
+    signal.signal(signal.SIGINT, handler)
+    signal.signal(signal.SIGTERM, handler)
+
+    def serve(req: _Request) -> None:
+        try:
+            if req.kind == "load":
+                spec, launcher = _spec(req.payload)
+                # the parameter server as it is now: private, namespace and absolute names
+                runner.set_parameters(_leaves(rospy.get_param("/", {})))
+                runner.load(spec, launcher=launcher)
+                with lock:
+                    launchers[spec.full_name] = launcher
+                req.reason = f"loaded {spec.full_name}"
+                _say(name, f"loaded {spec.full_name} ({spec.module}.{spec.class_name})")
+            elif req.kind == "unload":
+                full = req.payload if req.payload.startswith("/") else "/" + req.payload
+                runner.unload(full)
+                with lock:
+                    launchers.pop(full, None)
+                req.reason = f"unloaded {full}"
+                _say(name, f"unloaded {full}")
+            elif req.kind == "activate":
+                runner.activate()
+            elif req.kind == "deactivate":
+                runner.deactivate()
+            req.ok = True
+        except RtcfError as exc:
+            req.reason = str(exc)
+            _say(name, f"refused {req.kind}: {exc}")
+        except Exception as exc:  # a malformed request must not end the runner
+            req.reason = f"{type(exc).__name__}: {exc}"
+            _say(name, f"refused {req.kind}: {req.reason}")
+        finally:
+            req.done.set()
+
+    status = 0
+    iterations = 0
+    try:
+        runner.start()
+        watcher.start()
+        _say(name, f"ready: {settings.frequency:g} Hz, mode {settings.mode}")
+        while runner.stop_reason != STOP and not rospy.is_shutdown():
+            while True:
+                try:
+                    serve(requests.get_nowait())
+                except queue.Empty:
+                    break
+            if runner.stop_reason == STOP:
+                break
+            runner.clear_stop()
+            if runner.describe()["not_ready"] is None:
+                _say(name, "running")
+                iterations += runner.run(None).iterations
+            else:
+                try:
+                    serve(requests.get(timeout=0.1))
+                except queue.Empty:
+                    pass
+    except RtcfError as exc:
+        _say(name, f"error: {exc}")
+        status = 1
+    finally:
+        stopping.set()
+        # requests that came in meanwhile are refused, not left hanging
+        while True:
+            try:
+                req = requests.get_nowait()
+            except queue.Empty:
+                break
+            req.reason = "the runner is shutting down"
+            req.done.set()
+        for service in services:
+            service.shutdown()
+        for err in runner.shutdown() if runner.process is not None else []:
+            _say(name, f"error: {err}")
+            status = 1
+        runner.close()
+        bridge.shutdown()
+        _say(name, f"stopped after {iterations} iterations")
+    return status
+
+
+def _private_params(rospy: Any) -> dict[str, Any]:
+    values = rospy.get_param("~", {})
+    return dict(values) if isinstance(values, dict) else {}
+
+
+def _leaves(tree: Any, prefix: str = "") -> dict[str, Any]:
+    """The parameter server's tree as absolute leaf names (``/rtcf/sum1/gain``)."""
+    out: dict[str, Any] = {}
+    if isinstance(tree, dict) and tree:
+        for key, value in tree.items():
+            out.update(_leaves(value, f"{prefix}/{key}"))
+    elif prefix:
+        out[prefix] = tree
+    return out
+
+
+def _spec(request: Any) -> tuple[ComponentSpec, str]:
+    missing = [k for k in ("package", "type", "name") if not str(getattr(request, k, ""))]
+    if missing:
+        raise RtcfError(
+            "a load request needs package, type and name; missing: " + ", ".join(missing)
+        )
+    remaps = []
+    for rule in request.remaps:
+        src, sep, dst = str(rule).partition(":=")
+        if not sep or not src or not dst:
+            raise RtcfError(f"remap {rule!r} is not of the form from:=to")
+        remaps.append((src, dst))
+    spec = ComponentSpec(
+        name=str(request.name),
+        module=str(request.package),
+        class_name=str(request.type),
+        namespace=str(request.namespace or "/"),
+        remaps=remaps,
+        is_first=bool(request.is_first),
+        topics_ignore_for_graph=str(request.topics_ignore_for_graph or ""),
+    )
+    return spec, str(request.launcher or "")
+
+
+def runner_info(msg: Any, data: dict[str, Any]) -> Any:
+    """The original's rtcf_msgs/RunnerInfo of :meth:`WorkerRunner.introspect`'s data."""
+    ros = {c["topic"]: bool(c["ros"]) for c in data.get("connections", [])}
+
+    def port(p: dict[str, Any], kind: int) -> Any:
+        return msg.PortInfo(
+            port_type=kind,
+            name_remapped=str(p.get("topic", "")),
+            name_unresolved=str(p.get("name", "")),
+            msg_type=str(p.get("type", "")),
+            connected_to_ROS=ros.get(p.get("topic", ""), False),
+        )
+
+    components = []
+    for c in data.get("components", []):
+        package, _, cls = str(c.get("type", "")).rpartition(".")
+        components.append(msg.ComponentInfo(
+            name=str(c["name"]),
+            package=package,
+            type=cls,
+            input_ports=[port(p, msg.PortInfo.TYPE_INPUT) for p in c.get("inputs", [])],
+            output_ports=[port(p, msg.PortInfo.TYPE_OUTPUT) for p in c.get("outputs", [])],
+        ))
+    connections = [
+        msg.ConnectionInfo(
+            name=str(c["topic"]),
+            type=str(c["type"]),
+            publishing_components=list(c["publishers"]),
+            subscribing_components=list(c["subscribers"]),
+            connected_to_ROS=bool(c["ros"]),
+        )
+        for c in data.get("connections", [])
+    ]
+    return msg.RunnerInfo(
+        components=components,
+        connections=connections,
+        component_order=[str(n) for n in data.get("order", [])],
+    )
+
+
+# -- the launcher ------------------------------------------------------------------------
+
+
+def launcher_main(argv: list[str] | None = None) -> int:
+    argv = list(sys.argv if argv is None else argv)
+    try:
+        _, srv = _msgs()
+        from ._ros1 import _import_rospy, _keep_root_logging
+
+        rospy = _import_rospy()
+        import rosgraph
+        import rosgraph.names
+
+        if not rosgraph.is_master_online():
+            raise RtcfError(f"no ROS master answers at {rosgraph.get_master_uri()}")
+    except RtcfError as exc:
+        _say("rt_launcher", f"error: {exc}")
+        return 1
+    words = rospy.myargv(argv)[1:]
+    is_first = any(w in ("-f", "--is_first") for w in words)
+    positional = [w for w in words if not w.startswith("-")]
+    with _keep_root_logging():
+        rospy.init_node("rt_launcher", argv=argv, disable_signals=True)
+    me = rospy.get_name()
+    who = f"rt_launcher {me}"
+    params = _private_params(rospy)
+    package = positional[0] if positional else str(params.get("rt_package") or "")
+    cls = positional[1] if len(positional) > 1 else str(params.get("rt_type") or "")
+    if not package or not cls:
+        _say(who, "error: give PACKAGE TYPE (or the ~rt_package and ~rt_type parameters)")
+        rospy.signal_shutdown("no component")
+        return 2
+    runner = rospy.resolve_name(str(params.get("runner") or "rt_runner"))
+    namespace = rospy.get_namespace()
+    remaps = [
+        f"{src}:={dst}" for src, dst in rosgraph.names.load_mappings(argv).items()
+    ]
+    request = srv.LoadComponentRequest(
+        package=package,
+        type=cls,
+        name=me.rpartition("/")[2],
+        namespace=namespace,
+        remaps=remaps,
+        is_first=is_first or bool(params.get("is_first", False)),
+        topics_ignore_for_graph=str(params.get("topics_ignore_for_graph") or ""),
+        launcher=me,
+    )
+
+    def call(service: str, cls_: Any, req: Any, wait_s: float) -> tuple[bool, str]:
+        path = f"{runner}/{service}"
+        try:
+            rospy.wait_for_service(path, timeout=wait_s)
+            answer = rospy.ServiceProxy(path, cls_)(req)
+        except rospy.ROSException:
+            return False, f"no runner answers at {path}"
+        except rospy.ServiceException as exc:
+            return False, f"{path} failed: {exc}"
+        return bool(answer.success), str(answer.message)
+
+    stop = threading.Event()
+
+    def handler(signum: int, frame: FrameType | None) -> None:
+        stop.set()
+
+    # a stop during the load request unloads right after it
+    signal.signal(signal.SIGINT, handler)
+    signal.signal(signal.SIGTERM, handler)
+    ok, reason = call("load_component", srv.LoadComponent, request, 30.0)
+    if not ok:
+        _say(who, f"error: {runner} refused to load {package}.{cls}: {reason}")
+        rospy.signal_shutdown("refused")
+        return 1
+    _say(who, f"loaded into {runner}")
+    status = 0
+    presence = _Watch(me)
+    last_check = time.monotonic()
+    while not stop.wait(0.1):
+        if rospy.is_shutdown():  # e.g. a new node of the same name took over
+            _say(who, "error: rospy shut down; exiting")
+            return 1
+        now = time.monotonic()
+        if now - last_check >= WATCH_EVERY_S:
+            last_check = now
+            if presence.gone(runner):
+                _say(who, f"error: the runner {runner} is gone; exiting")
+                status = 1
+                break
+    if status == 0:
+        # a runner stopped at the same time (Ctrl-C to both) is not waited for long
+        full = namespace.rstrip("/") + "/" + request.name
+        ok, reason = call(
+            "unload_component", srv.UnloadComponent, srv.UnloadComponentRequest(name=full), 5.0
+        )
+        if ok:
+            _say(who, f"unloaded from {runner}")
+        else:
+            _say(who, f"warning: unload refused: {reason}")
+    rospy.signal_shutdown("rt_launcher stopped")
+    return status
+
+
+# -- introspection from the command line --------------------------------------------------
+
+
+def fetch_introspection_ros1(runner: str, timeout_s: float = 10.0) -> dict[str, Any]:
+    """Ask a running ROS 1 runner (rt_runner, or rtcf launch --middleware ros1) what it
+    holds: its ``~introspect`` service (std_srvs/Trigger, JSON)."""
+    from ._ros1 import _import_rospy, _keep_root_logging
+
+    rospy = _import_rospy()
+    import rosgraph
+    from std_srvs.srv import Trigger
+
+    if not rosgraph.is_master_online():
+        raise RtcfError(f"no ROS master answers at {rosgraph.get_master_uri()}")
+    with _keep_root_logging():
+        rospy.init_node("rtcf_cli", anonymous=True, disable_signals=True)
+    service = rospy.resolve_name(runner).rstrip("/") + "/introspect"
+    try:
+        try:
+            rospy.wait_for_service(service, timeout=timeout_s)
+        except rospy.ROSException:
+            raise RtcfError(
+                f"no runner answers at {service} within {timeout_s:g} s; is it running "
+                "(rt_runner, or rtcf launch ... --middleware ros1) on this ROS_MASTER_URI? "
+                "name it with --runner"
+            ) from None
+        try:
+            answer = rospy.ServiceProxy(service, Trigger)()
+        except rospy.ServiceException as exc:
+            raise RtcfError(f"{service} failed: {exc}") from None
+        data: dict[str, Any] = json.loads(answer.message)
+        return data
+    finally:
+        rospy.signal_shutdown("done")

@@ -1,0 +1,164 @@
+"""rt_runner and rt_launcher (ros1/rtcf) as separate ROS 1 processes, without roslaunch."""
+
+import signal
+import subprocess
+import sys
+import time
+
+import pytest
+import rospy
+from rtcf_msgs.srv import GetRunnerInfo, LoadComponent, LoadComponentRequest
+from std_msgs.msg import Float64
+from std_srvs.srv import Trigger
+
+from .._proc import read_rest, wait_for
+from ._helpers import wait_until
+from ._launch import end, ros1_env, rt_launcher, rt_runner
+
+pytestmark = pytest.mark.integration
+
+STARTED = []
+
+
+@pytest.fixture(autouse=True)
+def _end_all():
+    yield
+    end(*STARTED)
+    STARTED.clear()
+
+
+def runner(name, **params):
+    proc = rt_runner(name, **params)
+    STARTED.append(proc)
+    wait_for(proc, f"{name}: ready", timeout=30)
+    return proc
+
+
+def launcher(runner_name, name, cls, *remaps, first=False):
+    proc = rt_launcher(runner_name, name, cls, *remaps, first=first)
+    STARTED.append(proc)
+    return proc
+
+
+def sum3(runner_name, prefix):
+    """Two Mimo launchers: /ros/PREFIXout = 3 * /ros/PREFIXin, as in the SumTest."""
+    a = launcher(runner_name, f"{prefix}a", "Mimo", f"in1:=/ros/{prefix}in",
+                 f"in2:=/ros/{prefix}in", f"out1:=/{prefix}mid")
+    b = launcher(runner_name, f"{prefix}b", "Mimo", f"in1:=/{prefix}mid",
+                 f"in2:=/ros/{prefix}in", f"out1:=/ros/{prefix}out")
+    for p in (a, b):
+        wait_for(p, "loaded into", timeout=30)
+    return a, b
+
+
+def triples(topics, prefix, value):
+    got = topics.sub(f"/ros/{prefix}out", Float64)
+    pub = topics.pub(f"/ros/{prefix}in", Float64)
+    return wait_until(
+        lambda: bool(got) and abs(got[-1].data - 3 * value) < 1e-9,
+        10.0,
+        publish=lambda: pub.publish(Float64(value)),
+    )
+
+
+def test_two_runners_share_one_master(topics):
+    runner("/r1", ros_mapping_whitelist="/ros/.*")
+    runner("/r2", ros_mapping_whitelist="/ros/.*")
+    sum3("/r1", "one")
+    sum3("/r2", "two")
+    assert triples(topics, "one", 2.0)
+    assert triples(topics, "two", -7.5)
+    for name in ("/r1", "/r2"):
+        info = rospy.ServiceProxy(f"{name}/get_runner_info", GetRunnerInfo)().runner_info
+        prefix = "one" if name == "/r1" else "two"
+        assert sorted(c.name for c in info.components) == [f"/{prefix}a", f"/{prefix}b"]
+        assert list(info.component_order) == [f"/{prefix}a", f"/{prefix}b"]
+        comp = next(c for c in info.components if c.name == f"/{prefix}a")
+        assert (comp.package, comp.type) == ("rtcf_examples", "Mimo")
+        port = next(p for p in comp.input_ports if p.name_unresolved == "in1")
+        assert port.name_remapped == f"/ros/{prefix}in" and port.connected_to_ROS
+        mid = next(c for c in info.connections if c.name == f"/{prefix}mid")
+        assert list(mid.publishing_components) == [f"/{prefix}a"]
+        assert list(mid.subscribing_components) == [f"/{prefix}b"]
+        assert not mid.connected_to_ROS
+
+
+def test_bad_load_requests_are_refused_and_the_runner_keeps_running(topics):
+    runner("/rbad", ros_mapping_whitelist="/ros/.*")
+    sum3("/rbad", "bad")
+    load = rospy.ServiceProxy("/rbad/load_component", LoadComponent)
+    answer = load(LoadComponentRequest(package="", type="Mimo", name="x"))
+    assert not answer.success and "package" in answer.message, answer.message
+    answer = load(LoadComponentRequest(package="no_such_module", type="X", name="y"))
+    assert not answer.success and "no_such_module" in answer.message, answer.message
+    answer = load(LoadComponentRequest(package="rtcf_examples", type="Mimo", name="z",
+                                       remaps=["in1"]))
+    assert not answer.success and "from:=to" in answer.message, answer.message
+    assert triples(topics, "bad", 1.5)  # still running, both components in place
+
+
+def test_a_stopped_launcher_unloads_its_component(ros_node):
+    r = runner("/rstop")
+    a = launcher("/rstop", "comp", "Identity")
+    wait_for(a, "loaded into", timeout=30)
+    wait_for(r, "/rstop: running", timeout=30)
+    a.send_signal(signal.SIGINT)
+    _, err = read_rest(a, timeout=15)
+    assert a.returncode == 0 and "unloaded from /rstop" in err, err
+    wait_for(r, "/rstop: unloaded /comp", timeout=10)
+
+
+def test_a_killed_launcher_gets_its_component_unloaded(ros_node):
+    r = runner("/rkill")
+    a = launcher("/rkill", "victim", "Identity")
+    wait_for(a, "loaded into", timeout=30)
+    a.kill()
+    a.wait()
+    wait_for(r, "/rkill: unloaded /victim", timeout=15)
+
+
+def test_launchers_of_a_stopped_runner_exit_with_a_clear_message(ros_node):
+    r = runner("/rgone")
+    a = launcher("/rgone", "orphan", "Identity")
+    wait_for(a, "loaded into", timeout=30)
+    r.send_signal(signal.SIGINT)
+    _, rerr = read_rest(r, timeout=30)
+    assert r.returncode == 0, rerr
+    _, err = read_rest(a, timeout=15)
+    assert a.returncode == 1 and "the runner /rgone is gone" in err, err
+
+
+def test_a_refused_launcher_exits_1_with_the_reason(ros_node):
+    runner("/rref")
+    a = launcher("/rref", "nothing", "NoSuchClass")
+    _, err = read_rest(a, timeout=30)
+    assert a.returncode == 1, err
+    assert "/rref refused to load rtcf_examples.NoSuchClass" in err, err
+
+
+def test_wait_for_trigger_is_activated_and_deactivated(topics):
+    r = runner("/rtrig", mode="wait_for_trigger", ros_mapping_whitelist="/ros/.*")
+    sum3("/rtrig", "trig")
+    time.sleep(0.5)
+    assert "/rtrig: running" not in wait_for(r, "loaded /trigb", timeout=10)
+    assert rospy.ServiceProxy("/rtrig/activate_rt_loop", Trigger)().success
+    wait_for(r, "/rtrig: running", timeout=10)
+    assert triples(topics, "trig", 4.0)
+    assert rospy.ServiceProxy("/rtrig/deactivate_rt_loop", Trigger)().success
+
+
+def test_rtcf_component_list_asks_a_ros1_runner(ros_node):
+    runner("/rcli", ros_mapping_whitelist="/ros/.*")
+    sum3("/rcli", "cli")
+    rtcf = [sys.executable, "-m", "rtcf"]
+    out = subprocess.run(
+        [*rtcf, "component_list", "--middleware", "ros1", "--runner", "/rcli"],
+        capture_output=True, text=True, env=ros1_env(), timeout=60,
+    )
+    assert out.returncode == 0, out.stderr
+    assert "/clia" in out.stdout and "rtcf_examples.Mimo" in out.stdout, out.stdout
+    out = subprocess.run(
+        [*rtcf, "component_order", "--middleware", "ros1", "--runner", "/rcli"],
+        capture_output=True, text=True, env=ros1_env(), timeout=60,
+    )
+    assert out.stdout.split() == ["1.", "/clia", "2.", "/clib"], out.stdout
