@@ -27,10 +27,13 @@ messages per connection; older ones are dropped when a peer falls behind), and
 (volatile, the default: not latched). TCPROS is always reliable, so
 ``ros_qos_reliability`` changes nothing.
 
-``~iteration_info`` carries one std_msgs/Float64MultiArray per iteration, as with
-ROS 2: ``[iteration, stamp (s), calculation duration (s), wake-up jitter (s)]``,
-serialized here by hand from a template. ``~introspect`` (std_srvs/Trigger) answers
-with the runner's introspection data as JSON.
+``~iteration_info`` carries one rtcf_msgs/IterationInfo per iteration, the
+original's type (``stamp``: the iteration's scheduled start in ROS time,
+``duration_ns``: its calculation time), packed here by hand. Without the generated
+rtcf_msgs (scripts/setup-ros1 makes them) it is a std_msgs/Float64MultiArray as
+with ROS 2: ``[iteration, stamp (s), calculation duration (s), wake-up jitter (s)]``.
+``~introspect`` (std_srvs/Trigger) answers with the runner's introspection data as
+JSON.
 
 A node per component, as the ROS 2 bridge makes, is impossible in one rospy process;
 the components' records still reach /rosout under their own names (see :meth:`log`),
@@ -243,6 +246,7 @@ class Ros1Bridge:
         self._info_raw: Any = None
         self._info_prefix = b""
         self._info_offset = 0
+        self._info_typed = False
         self._introspect_srv: Any = None
         self._faces: dict[str, ComponentFace] = {}  # per loaded component (_ros1_face)
         self._stop = threading.Event()
@@ -270,11 +274,18 @@ class Ros1Bridge:
         if not settings.use_sim_time:
             self._info_offset = rospy.Time.now().to_nsec() - time.monotonic_ns()
         if settings.iteration_info and self._info_pub is None:
-            from std_msgs.msg import Float64MultiArray
+            info_class: type
+            try:
+                from rtcf_msgs.msg import IterationInfo
 
-            self._info_prefix = _iteration_info_prefix()
-            self._info_raw = raw_class(Float64MultiArray)()
-            self._info_pub = rospy.Publisher("~iteration_info", Float64MultiArray, queue_size=100)
+                info_class, self._info_typed = IterationInfo, True
+            except ImportError:  # rtcf_msgs not generated: the standard type
+                from std_msgs.msg import Float64MultiArray
+
+                info_class, self._info_typed = Float64MultiArray, False
+                self._info_prefix = _iteration_info_prefix()
+            self._info_raw = raw_class(info_class)()
+            self._info_pub = rospy.Publisher("~iteration_info", info_class, queue_size=100)
 
     def share_parameters(self, runner: WorkerRunner) -> None:
         """One parameter tree for the run and the ROS parameter server, before any load.
@@ -314,6 +325,13 @@ class Ros1Bridge:
         offset = self._info_offset
         prefix = self._info_prefix
         raw = self._info_raw
+        if self._info_typed:  # rtcf_msgs/IterationInfo: time stamp, uint64 duration_ns
+            pack_typed = _ITERATION_INFO.pack
+            for row in rows.tolist():
+                sec, nsec = divmod(row[COL_SCHEDULED] + offset, 1_000_000_000)
+                raw._buff = pack_typed(sec, nsec, max(row[COL_CALC], 0))
+                pub.publish(raw)
+            return
         pack = _FOUR_DOUBLES.pack
         for row in rows.tolist():
             raw._buff = prefix + pack(
@@ -554,6 +572,9 @@ class Ros1Bridge:
 
 
 _FOUR_DOUBLES = struct.Struct("<4d")
+
+
+_ITERATION_INFO = struct.Struct("<IIQ")  # rtcf_msgs/IterationInfo on the wire
 
 
 def _iteration_info_prefix() -> bytes:
