@@ -53,6 +53,12 @@ def roslaunch(package, file, *args):
     return start("roslaunch", "--screen", "-p", PORT, package, file, *args)
 
 
+def rtcf_launch(package, file, *args):
+    """The same launch file without roslaunch: rtcf launch --middleware ros1."""
+    return start(sys.executable, "-m", "rtcf", "launch", package, file, "--middleware", "ros1",
+                 *args)
+
+
 def end(*procs, sig=signal.SIGINT):
     """Stop (SIGINT, as Ctrl-C would) and reap; returns each one's stderr."""
     for p in procs:

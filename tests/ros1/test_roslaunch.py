@@ -10,7 +10,7 @@ from std_msgs.msg import Float64
 
 from .._proc import wait_for
 from ._helpers import wait_until
-from ._launch import end, roslaunch
+from ._launch import end, roslaunch, rtcf_launch
 
 pytestmark = pytest.mark.integration
 
@@ -58,6 +58,28 @@ def test_sum_test_of_the_original(topics):
     finally:
         (err,) = end(launch)
     assert "stopped after" in err, err
+
+
+@pytest.mark.parametrize("file", ["paper_example.launch", "sum_test.launch"])
+def test_rtcf_launch_middleware_ros1_gives_the_same_result(topics, file):
+    """Without roslaunch: the same round trips through the same topics."""
+    launch = rtcf_launch("rtcf_examples", file)
+    prefix = "/rtcf" if file == "sum_test.launch" else ""
+    factor = 3.0 if file == "sum_test.launch" else 1.0
+    try:
+        wait_for(launch, "running until Ctrl-C", timeout=30)
+        assert wait_until(
+            lambda: {f"{prefix}/ros/in", f"{prefix}/ros/out"} <= _topics()
+        ), _topics()
+        assert f"{prefix}/ros/blacklisted" not in _topics()
+        for value in (-10.0, 1234.56):
+            ok, seen = _round_trip(
+                topics, f"{prefix}/ros/in", f"{prefix}/ros/out", value, factor * value
+            )
+            assert ok, (value, seen)
+    finally:
+        (err,) = end(launch)
+    assert "Traceback" not in err, err
 
 
 def _topics():
