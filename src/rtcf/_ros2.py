@@ -31,6 +31,7 @@ from typing import TYPE_CHECKING, Any
 
 from ._channels import Mailbox, Ring
 from ._errors import RtcfError
+from ._health import health
 from ._log import LogLevel, LogRecord
 from ._port_channels import MappedPort, read_record
 from ._ros2_face import ComponentFace, ros_logger_name
@@ -271,36 +272,13 @@ class Ros2Bridge:
         """A timing and health summary on /diagnostics (rqt_runtime_monitor shows it)."""
         from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
 
-        def kv(key: str, value: float | int) -> KeyValue:
-            text = f"{value:.1f}" if isinstance(value, float) else str(value)
-            return KeyValue(key=key, value=text)
-
-        summary = aggregate.summary()
-        values = [
-            kv("iterations", status.iterations),
-            kv("overruns", status.overruns),
-            kv("log records dropped", status.log_records_dropped),
-            kv("timing rows dropped", aggregate.dropped),
-        ]
-        for label, stats in (("jitter", summary.jitter_us), ("calc", summary.calc_us)):
-            for q in ("p50", "p99", "p999", "max"):
-                if q in stats:
-                    values.append(kv(f"{label} {q} [us]", stats[q]))
-        for name, stats in summary.components_us.items():
-            if "p999" in stats:
-                values.append(kv(f"{name} calc p999 [us]", stats["p999"]))
-                values.append(kv(f"{name} calc max [us]", stats["max"]))
-        trouble = status.overruns or status.log_records_dropped or aggregate.dropped
+        h = health(runner, status, aggregate)
         st = DiagnosticStatus(
-            level=DiagnosticStatus.WARN if trouble else DiagnosticStatus.OK,
-            name=f"rtcf: {runner}",
-            message=(
-                f"{status.iterations} iterations, {status.overruns} overruns, "
-                f"jitter p99.9 {status.jitter_p999_us:.1f} us, "
-                f"calc p99.9 {status.calc_p999_us:.1f} us"
-            ),
+            level=DiagnosticStatus.WARN if h.warn else DiagnosticStatus.OK,
+            name=h.name,
+            message=h.message,
             hardware_id=self.node.get_fully_qualified_name(),
-            values=values,
+            values=[KeyValue(key=k, value=v) for k, v in h.values],
         )
         array = DiagnosticArray(status=[st])
         array.header.stamp = self.node.get_clock().now().to_msg()
