@@ -73,6 +73,29 @@ class ComponentLogger(logging.Logger):
             hook(self.level)
 
 
+def level_of(text: str) -> int:
+    """An rtcf level from what ``~set_logger_level`` carries ('warn', 'WARNING', '30');
+    unknown names raise :class:`RtcfError`."""
+    word = str(text).strip()
+    if word.isdigit():
+        return int(word)
+    number = level_number(word, default=-1)
+    if number < 0:
+        raise RtcfError(f"unknown log level {text!r} (debug, info, warn, error or fatal)")
+    return number
+
+
+def mirror_level(component: str, level: int) -> None:
+    """Show a level set elsewhere on this process's ``ros.rtcf.<component>`` logger,
+    without passing it on again (its hook is not called)."""
+    logger = logging.getLogger(rosconsole_logger_name(component))
+    logging.Logger.setLevel(logger, int(level))
+    if isinstance(logger, ComponentLogger):
+        face = getattr(logger.rtcf_on_level, "__self__", None)
+        if isinstance(face, ComponentFace):
+            face.level = int(level)
+
+
 def component_logger(component: str, level: int, on_level: Callable[[int], None]) -> logging.Logger:
     """The logger ``ros.rtcf.<component>`` at ``level``; ``on_level`` hears later changes."""
     logger = logging.getLogger(rosconsole_logger_name(component))

@@ -13,7 +13,10 @@ several runners share one master):
 * ``~activate_rt_loop`` and ``~deactivate_rt_loop`` (``std_srvs/Trigger``), for mode
   ``wait_for_trigger``;
 * ``~get_runner_info`` (``rtcf_msgs/GetRunnerInfo``): the original's introspection
-  message; ``~introspect`` (``std_srvs/Trigger``, JSON) comes from the bridge.
+  message; ``~introspect`` (``std_srvs/Trigger``, JSON) comes from the bridge;
+* ``~set_component_log_level`` (``roscpp/SetLoggerLevel``: ``logger`` is the
+  component's full name, ``level`` debug ... fatal): what a launcher forwards when
+  rqt_logger_level sets its logger ``ros.rtcf.<component>``.
 
 Before each load it copies the parameter server's tree into the worker, so a
 component reads its private (``~gain``), namespace and absolute parameters as the
@@ -26,6 +29,11 @@ default ``rt_runner`` in the launcher's namespace) to load the class as a compon
 named like the launcher node, stays alive, and asks for the unload when it gets
 SIGINT or SIGTERM. The runner unloads the components of launchers that vanish
 (killed); a launcher whose runner vanishes exits with status 1 and a message.
+
+rqt_logger_level shows a component as its launcher's node, so the launcher holds the
+component's logger ``ros.rtcf.<component>`` (rospy's ``~get_loggers`` lists it, at the
+runner's level for it) and forwards a ``~set_logger_level`` of it to the runner's
+``~set_component_log_level``.
 """
 
 from __future__ import annotations
@@ -38,12 +46,15 @@ import threading
 import time
 import xmlrpc.client
 from types import FrameType
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from ._errors import RtcfError
 from ._executor import STOP
 from ._runner import ComponentSpec
 from ._settings import RunnerSettings
+
+if TYPE_CHECKING:
+    from ._ros1_face import ComponentLogger
 
 WATCH_EVERY_S = 1.0
 MISSES_TO_GONE = 3  # a node is gone after this many failed look-ups in a row
@@ -71,6 +82,7 @@ class _Request:
         self.done = threading.Event()
         self.ok = False
         self.reason = ""
+        self.abandoned = False  # its caller stopped waiting: not served any more
 
 
 # -- presence on the master ------------------------------------------------------------
@@ -132,8 +144,10 @@ def runner_main(argv: list[str] | None = None) -> int:
     except RtcfError as exc:
         _say("rt_runner", f"error: {exc}")
         return 1
+    from roscpp.srv import SetLoggerLevel, SetLoggerLevelResponse
     from std_srvs.srv import Trigger, TriggerResponse
 
+    from ._ros1_face import level_of, mirror_level
     from ._supervisor import WorkerRunner
 
     name = bridge.node_name
@@ -157,6 +171,8 @@ def runner_main(argv: list[str] | None = None) -> int:
         requests.put(req)
         runner.request_control()
         if not req.done.wait(timeout):
+            with lock:
+                req.abandoned = True
             req.reason = "the runner did not answer in time"
         return req
 
@@ -178,12 +194,24 @@ def runner_main(argv: list[str] | None = None) -> int:
     def on_info(request: Any) -> Any:
         return srv.GetRunnerInfoResponse(runner_info=runner_info(msg, runner.introspect()))
 
+    def on_component_level(request: Any) -> Any:
+        # rospy's service thread; WorkerRunner.set_log_level is thread-safe
+        component = str(request.logger)
+        try:
+            level = level_of(str(request.level))
+            runner.set_log_level(component, level)
+        except RtcfError as exc:  # the caller's ServiceProxy raises ServiceException
+            raise rospy.ServiceException(str(exc)) from None
+        mirror_level(component, level)  # the runner's own ros.rtcf.<component> logger
+        return SetLoggerLevelResponse()
+
     services = [
         rospy.Service("~load_component", srv.LoadComponent, on_load),
         rospy.Service("~unload_component", srv.UnloadComponent, on_unload),
         rospy.Service("~activate_rt_loop", Trigger, trigger("activate")),
         rospy.Service("~deactivate_rt_loop", Trigger, trigger("deactivate")),
         rospy.Service("~get_runner_info", srv.GetRunnerInfo, on_info),
+        rospy.Service("~set_component_log_level", SetLoggerLevel, on_component_level),
     ]
     stopping = threading.Event()
 
@@ -202,13 +230,19 @@ def runner_main(argv: list[str] | None = None) -> int:
 
     watcher = threading.Thread(target=watch, name="rtcf-ros1-watch", daemon=True)
 
+    stop_asked = threading.Event()  # a signal's STOP, kept past clear_stop
+
     def handler(signum: int, frame: FrameType | None) -> None:
+        stop_asked.set()
         runner.request_stop()
 
     signal.signal(signal.SIGINT, handler)
     signal.signal(signal.SIGTERM, handler)
 
     def serve(req: _Request) -> None:
+        with lock:
+            if req.abandoned:  # its caller gave up (and said so): do not act on it late
+                return
         try:
             if req.kind == "load":
                 spec, launcher = _spec(req.payload)
@@ -246,15 +280,18 @@ def runner_main(argv: list[str] | None = None) -> int:
         runner.start()
         watcher.start()
         _say(name, f"ready: {settings.frequency:g} Hz, mode {settings.mode}")
-        while runner.stop_reason != STOP and not rospy.is_shutdown():
+        while not stop_asked.is_set() and not rospy.is_shutdown():
+            # forget the last request's CONTROL *before* taking the requests: one that
+            # comes after this sets it again, and the next run returns at once to serve
+            # it (cleared after the queue was empty, its wake-up would be lost)
+            runner.clear_stop()
             while True:
                 try:
                     serve(requests.get_nowait())
                 except queue.Empty:
                     break
-            if runner.stop_reason == STOP:
+            if stop_asked.is_set() or runner.stop_reason == STOP:
                 break
-            runner.clear_stop()
             if runner.describe()["not_ready"] is None:
                 _say(name, "running")
                 iterations += runner.run(None).iterations
@@ -439,6 +476,8 @@ def launcher_main(argv: list[str] | None = None) -> int:
         _say(who, f"error: {runner} refused to load {package}.{cls}: {reason}")
         rospy.signal_shutdown("refused")
         return 1
+    full = namespace.rstrip("/") + "/" + request.name
+    logger = _LevelLink(runner, full, who).logger(_runner_level(runner, full))
     _say(who, f"loaded into {runner}")
     status = 0
     presence = _Watch(me)
@@ -454,9 +493,9 @@ def launcher_main(argv: list[str] | None = None) -> int:
                 _say(who, f"error: the runner {runner} is gone; exiting")
                 status = 1
                 break
+    logger.rtcf_on_level = None  # the component is leaving: no more forwarding
     if status == 0:
         # a runner stopped at the same time (Ctrl-C to both) is not waited for long
-        full = namespace.rstrip("/") + "/" + request.name
         ok, reason = call(
             "unload_component", srv.UnloadComponent, srv.UnloadComponentRequest(name=full), 5.0
         )
@@ -466,6 +505,58 @@ def launcher_main(argv: list[str] | None = None) -> int:
             _say(who, f"warning: unload refused: {reason}")
     rospy.signal_shutdown("rt_launcher stopped")
     return status
+
+
+def _runner_level(runner: str, component: str) -> int:
+    """The component's log level as its runner has it (``~introspect``); else info."""
+    import rospy
+    from std_srvs.srv import Trigger
+
+    from ._ros1_face import level_number
+
+    try:
+        answer = rospy.ServiceProxy(f"{runner}/introspect", Trigger)()
+        data = json.loads(answer.message)
+        for info in data.get("components", []):
+            if info.get("name") == component:
+                return level_number(info.get("log_level"))
+    except Exception:  # an older runner, or none: info, as the runner starts it
+        pass
+    return level_number(None)
+
+
+class _LevelLink:
+    """A launcher's hook on ``ros.rtcf.<component>``: a level set there (rqt_logger_level
+    through rospy's ``~set_logger_level``) goes to the runner's
+    ``~set_component_log_level``. Called in rospy's service thread; the reply to
+    ``set_logger_level`` waits until the runner has the level."""
+
+    def __init__(self, runner: str, component: str, who: str) -> None:
+        import rospy
+        from roscpp.srv import SetLoggerLevel
+
+        self.component = component
+        self.who = who
+        self.path = f"{runner}/set_component_log_level"
+        self.proxy = rospy.ServiceProxy(self.path, SetLoggerLevel)
+
+    def logger(self, level: int) -> ComponentLogger:
+        from ._ros1_face import ComponentLogger, component_logger
+
+        logger = component_logger(self.component, level, self)
+        assert isinstance(logger, ComponentLogger)
+        return logger
+
+    def __call__(self, level: int) -> None:
+        import logging
+
+        import rospy
+
+        name = logging.getLevelName(int(level))
+        try:
+            self.proxy(logger=self.component, level=name)
+        except (rospy.ServiceException, rospy.ROSException) as exc:
+            _say(self.who, f"warning: {self.path} refused level {name}: {exc}")
 
 
 # -- introspection from the command line --------------------------------------------------

@@ -95,6 +95,7 @@ class _Request:
         self.done = threading.Event()
         self.ok = False
         self.reason = ""
+        self.abandoned = False  # its caller stopped waiting: not served any more
 
 
 def runner_main(argv: list[str] | None = None) -> int:
@@ -119,12 +120,15 @@ def runner_main(argv: list[str] | None = None) -> int:
     bridge = Ros2Bridge(node=node)
     runner = WorkerRunner(settings, name=name, bridge=bridge)
     launchers: dict[str, str] = {}  # component -> launcher node that asked for it
+    lock = threading.Lock()
 
     def submit(kind: str, payload: Any, timeout: float = 30.0) -> _Request:
         req = _Request(kind, payload)
         requests.put(req)
         runner.request_control()
         if not req.done.wait(timeout):
+            with lock:
+                req.abandoned = True
             req.reason = "the runner did not answer in time"
         return req
 
@@ -183,13 +187,19 @@ def runner_main(argv: list[str] | None = None) -> int:
 
     node.create_timer(WATCH_EVERY_S, watch)
 
+    stop_asked = threading.Event()  # a signal's STOP, kept past clear_stop
+
     def handler(signum: int, frame: FrameType | None) -> None:
+        stop_asked.set()
         runner.request_stop()
 
     signal.signal(signal.SIGINT, handler)
     signal.signal(signal.SIGTERM, handler)
 
     def serve(req: _Request) -> None:
+        with lock:
+            if req.abandoned:  # its caller gave up (and said so): do not act on it late
+                return
         try:
             if req.kind == "load":
                 spec, launcher = _spec(req.payload)
@@ -222,15 +232,18 @@ def runner_main(argv: list[str] | None = None) -> int:
     try:
         runner.start()
         _say(name, f"ready: {settings.frequency:g} Hz, mode {settings.mode}")
-        while runner.stop_reason != STOP:
+        while not stop_asked.is_set():
+            # forget the last request's CONTROL *before* taking the requests: one that
+            # comes after this sets it again, and the next run returns at once to serve
+            # it (cleared after the queue was empty, its wake-up would be lost)
+            runner.clear_stop()
             while True:
                 try:
                     serve(requests.get_nowait())
                 except queue.Empty:
                     break
-            if runner.stop_reason == STOP:
+            if stop_asked.is_set() or runner.stop_reason == STOP:
                 break
-            runner.clear_stop()
             if runner.describe()["not_ready"] is None:
                 result = runner.run(None)
                 if runner.stop_reason == STOP:

@@ -7,6 +7,8 @@ import time
 
 import pytest
 import rospy
+from roscpp.srv import GetLoggers, SetLoggerLevel
+from rosgraph_msgs.msg import Log
 from rtcf_msgs.srv import GetRunnerInfo, LoadComponent, LoadComponentRequest
 from std_msgs.msg import Float64
 from std_srvs.srv import Trigger
@@ -34,8 +36,8 @@ def runner(name, **params):
     return proc
 
 
-def launcher(runner_name, name, cls, *remaps, first=False):
-    proc = rt_launcher(runner_name, name, cls, *remaps, first=first)
+def launcher(runner_name, name, cls, *remaps, first=False, package="rtcf_examples"):
+    proc = rt_launcher(runner_name, name, cls, *remaps, first=first, package=package)
     STARTED.append(proc)
     return proc
 
@@ -72,15 +74,16 @@ def test_two_runners_share_one_master(topics):
         info = rospy.ServiceProxy(f"{name}/get_runner_info", GetRunnerInfo)().runner_info
         prefix = "one" if name == "/r1" else "two"
         assert sorted(c.name for c in info.components) == [f"/{prefix}a", f"/{prefix}b"]
-        assert list(info.component_order) == [f"/{prefix}a", f"/{prefix}b"]
+        # the wiring first: the order follows from it (a -> b through /PREFIXmid)
         comp = next(c for c in info.components if c.name == f"/{prefix}a")
         assert (comp.package, comp.type) == ("rtcf_examples", "Mimo")
         port = next(p for p in comp.input_ports if p.name_unresolved == "in1")
-        assert port.name_remapped == f"/ros/{prefix}in" and port.connected_to_ROS
+        assert port.name_remapped == f"/ros/{prefix}in" and port.connected_to_ROS, info
         mid = next(c for c in info.connections if c.name == f"/{prefix}mid")
-        assert list(mid.publishing_components) == [f"/{prefix}a"]
-        assert list(mid.subscribing_components) == [f"/{prefix}b"]
+        assert list(mid.publishing_components) == [f"/{prefix}a"], info
+        assert list(mid.subscribing_components) == [f"/{prefix}b"], info
         assert not mid.connected_to_ROS
+        assert list(info.component_order) == [f"/{prefix}a", f"/{prefix}b"], info
 
 
 def test_bad_load_requests_are_refused_and_the_runner_keeps_running(topics):
@@ -162,3 +165,40 @@ def test_rtcf_component_list_asks_a_ros1_runner(ros_node):
         capture_output=True, text=True, env=ros1_env(), timeout=60,
     )
     assert out.stdout.split() == ["1.", "/clia", "2.", "/clib"], out.stdout
+
+
+def loggers(node):
+    got = rospy.ServiceProxy(f"{node}/get_loggers", GetLoggers)()
+    return {lg.name: lg.level for lg in got.loggers}
+
+
+def test_rqt_logger_level_on_a_launcher_reaches_its_component(topics):
+    # rqt_logger_level shows the component as its launcher's node (/ctl/tuned): the
+    # launcher lists ros.rtcf.ctl.tuned and forwards a level set there to the runner
+    records = topics.sub("/rosout", Log, queue_size=1000)
+    runner("/rlog")
+    a = launcher("/rlog", "tuned", "Tuned", "__ns:=/ctl", package="rtcf_ros1_components")
+    wait_for(a, "loaded into", timeout=30)
+    assert loggers("/ctl/tuned").get("ros.rtcf.ctl.tuned") == "INFO"
+    mine = lambda word: [  # noqa: E731
+        int(r.msg.split()[1]) for r in list(records)
+        if r.name == "/ctl/tuned" and r.msg.startswith(word + " ")
+    ]
+    assert wait_until(lambda: mine("info") and mine("warn"))
+    # as rqt_logger_level calls it, on the node it shows
+    set_level = rospy.ServiceProxy("/ctl/tuned/set_logger_level", SetLoggerLevel)
+    set_level(logger="ros.rtcf.ctl.tuned", level="warn")
+    assert loggers("/ctl/tuned").get("ros.rtcf.ctl.tuned") == "WARN"
+    assert loggers("/rlog").get("ros.rtcf.ctl.tuned") == "WARN"  # the runner's copy
+    warned = len(mine("warn"))
+    assert wait_until(lambda: len(mine("warn")) >= warned + 4)
+    latest = mine("warn")[-3:]
+    assert not set(latest) & set(mine("info")), (latest, mine("info")[-5:])
+    set_level(logger="ros.rtcf.ctl.tuned", level="info")  # and back: info comes again
+    assert wait_until(lambda: mine("info") and mine("info")[-1] > latest[-1])
+    # the runner's service refuses what is no level, or no component of its own
+    direct = rospy.ServiceProxy("/rlog/set_component_log_level", SetLoggerLevel)
+    with pytest.raises(rospy.ServiceException, match="unknown log level"):
+        direct(logger="/ctl/tuned", level="loud")
+    with pytest.raises(rospy.ServiceException, match="not loaded"):
+        direct(logger="/ctl/other", level="warn")

@@ -9,7 +9,6 @@
   component's logger ``ros.rtcf.<component>``, and the level reaches the worker.
 """
 
-import os
 import subprocess
 import sys
 
@@ -21,11 +20,10 @@ from std_msgs.msg import Float64, String
 
 from .._proc import read_rest, wait_for
 from ._helpers import wait_until
+from ._launch import end, ros1_env, rt_launcher, rt_runner
 from .conftest import rtcf_env
 
 pytestmark = pytest.mark.integration
-
-DYNPARAM = "/usr/lib/dynamic_reconfigure/dynparam"
 
 TUNED = """\
 <launch>
@@ -112,19 +110,12 @@ def forget(*names):
             rospy.delete_param(name)
 
 
-# Debian's python3-dynamic-reconfigure ships dynparam without the package's manifest,
-# so its roslib.load_manifest("dynamic_reconfigure") fails: run the very script with
-# that call (a no-op where the modules are on sys.path anyway) left out
-_DYNPARAM = (
-    "import runpy, sys, roslib; roslib.load_manifest = lambda *a: None; "
-    "sys.argv = sys.argv[1:]; runpy.run_path(sys.argv[0], run_name='__main__')"
-)
-
-
 def dynparam(*args):
+    """``rosrun dynamic_reconfigure dynparam ...``, as a user types it (scripts/setup-ros1
+    installs rosbash and dynamic_reconfigure's manifest)."""
     done = subprocess.run(
-        [sys.executable, "-c", _DYNPARAM, DYNPARAM, *args],
-        capture_output=True, text=True, env=dict(os.environ), timeout=30,
+        ["rosrun", "dynamic_reconfigure", "dynparam", *args],
+        capture_output=True, text=True, env=ros1_env(), timeout=30,
     )
     assert done.returncode == 0, done.stdout + done.stderr
     return done.stdout
@@ -136,7 +127,7 @@ def test_dynparam_set_changes_an_output_while_running(tuned, topics):
     assert out.connected()
     feed = lambda: pub.publish(Float64(3.0))  # noqa: E731
     assert wait_until(lambda: out and out[-1].data == 4.0, publish=feed), out[-3:]
-    # dynparam set: the standard tool (a dynamic_reconfigure client)
+    # rosrun dynamic_reconfigure dynparam set: the standard tool
     dynparam("set", "/ctl/tuned", "gain", "2.5")
     assert wait_until(lambda: out[-1].data == 8.5, publish=feed), out[-3:]
     got = dynparam("get", "/ctl/tuned")
@@ -228,8 +219,6 @@ def test_parameters_from_launch_file_and_server(tmp_path, topics):
 def test_executables_mode_reads_the_server_and_serves_dynparam(topics):
     # rt_runner and an rt_launcher, no roslaunch: the launcher's private parameter comes
     # from the server (rosparam set before), the reconfigure server lives in the runner
-    from ._launch import end, rt_launcher, rt_runner
-
     rospy.set_param("/exe/tuned/offset", 5)
     runner = rt_runner("/exe/rt_runner", ros_mapping_whitelist="/ros/.*")
     launcher = rt_launcher(
