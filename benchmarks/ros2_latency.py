@@ -629,8 +629,9 @@ def main() -> int:
         body = "\n".join(
             [
                 f"Fig. 1 at **{args.frequency:g} Hz** in every system; the probe publishes "
-                f"`std_msgs/Float64` sequence numbers at {args.rate:g} Hz and times the first "
-                f"output carrying each; **{args.duration:g} s per system**, in {args.rounds} "
+                f"`std_msgs/Float64` sequence numbers at {args.rate:g} Hz on average and "
+                f"times the first output carrying each; **{args.duration:g} s per system**, "
+                f"in {args.rounds} "
                 f"alternating rounds, after {args.warmup:g} s of warm-up per round. "
                 f"{conditions}. `/dev/cpu_dma_latency` held at 0 throughout.",
                 "",
