@@ -250,9 +250,14 @@ class Worker:
     ) -> dict[str, Any]:
         runner = self._runner()
         seg = Segment.attach(timing)
+        port_seg = Segment.attach(ports_segment) if ports_segment else None
+        # mapped on both sides now: the names go at once, so that a supervisor killed
+        # from here on leaves nothing in /dev/shm (it unlinks them too, once started)
+        seg.unlink()
+        if port_seg is not None:
+            port_seg.unlink()
         ring = Ring.open(seg.buf)
         trace = Trace(runner.components, runner.state) if trace_path else None
-        port_seg = Segment.attach(ports_segment) if ports_segment else None
         bridge = None
         if port_seg is not None and ports:
             bridge = WorkerPorts(port_seg.buf, ports, *runner.mapped_ports())

@@ -233,7 +233,7 @@ def test_a_supervisor_killed_with_sigkill_takes_its_worker_along(tmp_path):
     proc = start("launch", path)
     m = wait_for_match(proc, r"loop in worker process (\d+)")
     worker = int(m.group(1))
-    wait_for(proc, "running until Ctrl-C")
+    wait_for(proc, "real-time:")  # the loop has started: every segment is mapped
     proc.kill()
     read_rest(proc, 30)
     # the worker gets SIGTERM from the kernel (PR_SET_PDEATHSIG), stops and leaves
