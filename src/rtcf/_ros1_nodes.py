@@ -39,7 +39,6 @@ runner's level for it) and forwards a ``~set_logger_level`` of it to the runner'
 from __future__ import annotations
 
 import json
-import queue
 import signal
 import sys
 import threading
@@ -49,7 +48,7 @@ from types import FrameType
 from typing import TYPE_CHECKING, Any
 
 from ._errors import RtcfError
-from ._executor import STOP
+from ._requests import Request, RequestQueue
 from ._runner import ComponentSpec
 from ._settings import RunnerSettings
 
@@ -73,16 +72,6 @@ def _msgs() -> tuple[Any, Any]:
             f"rtcf_msgs is not generated ({exc}); run scripts/setup-ros1 (docs/ros1.md)"
         ) from None
     return rtcf_msgs.msg, rtcf_msgs.srv
-
-
-class _Request:
-    def __init__(self, kind: str, payload: Any) -> None:
-        self.kind = kind
-        self.payload = payload
-        self.done = threading.Event()
-        self.ok = False
-        self.reason = ""
-        self.abandoned = False  # its caller stopped waiting: not served any more
 
 
 # -- presence on the master ------------------------------------------------------------
@@ -161,20 +150,11 @@ def runner_main(argv: list[str] | None = None) -> int:
         return 1
     for note in getattr(settings, "notes", []):
         _say(name, note)
-    requests: queue.Queue[_Request] = queue.Queue()
     runner = WorkerRunner(settings, name=name, bridge=bridge)
+    requests = RequestQueue(runner)
+    submit = requests.submit
     launchers: dict[str, str] = {}  # component -> launcher node that asked for it
-    lock = threading.Lock()
-
-    def submit(kind: str, payload: Any, timeout: float = 30.0) -> _Request:
-        req = _Request(kind, payload)
-        requests.put(req)
-        runner.request_control()
-        if not req.done.wait(timeout):
-            with lock:
-                req.abandoned = True
-            req.reason = "the runner did not answer in time"
-        return req
+    lock = threading.Lock()  # launchers: the watch thread reads it too
 
     def on_load(request: Any) -> Any:
         req = submit("load", request)
@@ -225,8 +205,7 @@ def runner_main(argv: list[str] | None = None) -> int:
                     with lock:
                         launchers.pop(component, None)
                     _say(name, f"launcher {launcher} is gone; unloading {component}")
-                    requests.put(_Request("unload", component))
-                    runner.request_control()
+                    requests.put("unload", component)
 
     watcher = threading.Thread(target=watch, name="rtcf-ros1-watch", daemon=True)
 
@@ -239,10 +218,7 @@ def runner_main(argv: list[str] | None = None) -> int:
     signal.signal(signal.SIGINT, handler)
     signal.signal(signal.SIGTERM, handler)
 
-    def serve(req: _Request) -> None:
-        with lock:
-            if req.abandoned:  # its caller gave up (and said so): do not act on it late
-                return
+    def serve(req: Request) -> None:
         try:
             if req.kind == "load":
                 spec, launcher = _spec(req.payload)
@@ -280,39 +256,22 @@ def runner_main(argv: list[str] | None = None) -> int:
         runner.start()
         watcher.start()
         _say(name, f"ready: {settings.frequency:g} Hz, mode {settings.mode}")
-        while not stop_asked.is_set() and not rospy.is_shutdown():
-            # forget the last request's CONTROL *before* taking the requests: one that
-            # comes after this sets it again, and the next run returns at once to serve
-            # it (cleared after the queue was empty, its wake-up would be lost)
-            runner.clear_stop()
-            while True:
-                try:
-                    serve(requests.get_nowait())
-                except queue.Empty:
-                    break
-            if stop_asked.is_set() or runner.stop_reason == STOP:
-                break
-            if runner.describe()["not_ready"] is None:
-                _say(name, "running")
-                iterations += runner.run(None).iterations
-            else:
-                try:
-                    serve(requests.get(timeout=0.1))
-                except queue.Empty:
-                    pass
+
+        def run() -> None:
+            nonlocal iterations
+            _say(name, "running")
+            iterations += runner.run(None).iterations
+
+        requests.serve_until_stopped(
+            serve, lambda: stop_asked.is_set() or rospy.is_shutdown(), run
+        )
     except RtcfError as exc:
         _say(name, f"error: {exc}")
         status = 1
     finally:
         stopping.set()
         # requests that came in meanwhile are refused, not left hanging
-        while True:
-            try:
-                req = requests.get_nowait()
-            except queue.Empty:
-                break
-            req.reason = "the runner is shutting down"
-            req.done.set()
+        requests.refuse_pending("the runner is shutting down")
         for service in services:
             service.shutdown()
         for err in runner.shutdown() if runner.process is not None else []:

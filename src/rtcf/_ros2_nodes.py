@@ -24,7 +24,6 @@ when it is stopped. The runner unloads the components of launchers that vanish
 from __future__ import annotations
 
 import json
-import queue
 import signal
 import sys
 import threading
@@ -35,6 +34,7 @@ from typing import Any
 
 from ._errors import RtcfError
 from ._executor import STOP
+from ._requests import Request, RequestQueue
 from ._ros2_face import ComponentFace
 from ._runner import ComponentSpec
 from ._settings import RunnerSettings
@@ -88,16 +88,6 @@ def _ros_remaps(argv: list[str]) -> list[tuple[str, str]]:
 # -- the runner ------------------------------------------------------------------------
 
 
-class _Request:
-    def __init__(self, kind: str, payload: Any) -> None:
-        self.kind = kind
-        self.payload = payload
-        self.done = threading.Event()
-        self.ok = False
-        self.reason = ""
-        self.abandoned = False  # its caller stopped waiting: not served any more
-
-
 def runner_main(argv: list[str] | None = None) -> int:
     from rcl_interfaces.msg import SetParametersResult
     from rcl_interfaces.srv import SetParametersAtomically
@@ -116,21 +106,11 @@ def runner_main(argv: list[str] | None = None) -> int:
     except RtcfError as exc:
         _say("rt_runner", f"error: {exc}")
         return 1
-    requests: queue.Queue[_Request] = queue.Queue()
     bridge = Ros2Bridge(node=node)
     runner = WorkerRunner(settings, name=name, bridge=bridge)
+    requests = RequestQueue(runner)
+    submit = requests.submit
     launchers: dict[str, str] = {}  # component -> launcher node that asked for it
-    lock = threading.Lock()
-
-    def submit(kind: str, payload: Any, timeout: float = 30.0) -> _Request:
-        req = _Request(kind, payload)
-        requests.put(req)
-        runner.request_control()
-        if not req.done.wait(timeout):
-            with lock:
-                req.abandoned = True
-            req.reason = "the runner did not answer in time"
-        return req
 
     def on_load(request: Any, response: Any) -> Any:
         req = submit("load", {p.name: _value(p.value) for p in request.parameters})
@@ -182,8 +162,7 @@ def runner_main(argv: list[str] | None = None) -> int:
         for component, launcher in list(launchers.items()):
             if launcher and presence.gone(launcher):
                 launchers.pop(component, None)
-                requests.put(_Request("unload", component))
-                runner.request_control()
+                requests.put("unload", component)
 
     node.create_timer(WATCH_EVERY_S, watch)
 
@@ -196,10 +175,7 @@ def runner_main(argv: list[str] | None = None) -> int:
     signal.signal(signal.SIGINT, handler)
     signal.signal(signal.SIGTERM, handler)
 
-    def serve(req: _Request) -> None:
-        with lock:
-            if req.abandoned:  # its caller gave up (and said so): do not act on it late
-                return
+    def serve(req: Request) -> None:
         try:
             if req.kind == "load":
                 spec, launcher = _spec(req.payload)
@@ -232,27 +208,13 @@ def runner_main(argv: list[str] | None = None) -> int:
     try:
         runner.start()
         _say(name, f"ready: {settings.frequency:g} Hz, mode {settings.mode}")
-        while not stop_asked.is_set():
-            # forget the last request's CONTROL *before* taking the requests: one that
-            # comes after this sets it again, and the next run returns at once to serve
-            # it (cleared after the queue was empty, its wake-up would be lost)
-            runner.clear_stop()
-            while True:
-                try:
-                    serve(requests.get_nowait())
-                except queue.Empty:
-                    break
-            if stop_asked.is_set() or runner.stop_reason == STOP:
-                break
-            if runner.describe()["not_ready"] is None:
-                result = runner.run(None)
-                if runner.stop_reason == STOP:
-                    _say(name, f"stopped after {result.iterations} iterations")
-            else:
-                try:
-                    serve(requests.get(timeout=0.1))
-                except queue.Empty:
-                    pass
+
+        def run() -> None:
+            result = runner.run(None)
+            if runner.stop_reason == STOP:
+                _say(name, f"stopped after {result.iterations} iterations")
+
+        requests.serve_until_stopped(serve, stop_asked.is_set, run)
     except RtcfError as exc:
         _say(name, f"error: {exc}")
         status = 1
