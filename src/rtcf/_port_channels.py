@@ -1,8 +1,9 @@
 """Ports mapped to the middleware: their shared-memory channels on both sides.
 
 An output port whose topic is mapped gets a *tap*: every ``write`` also encodes the
-value and pushes it into a ring that the supervisor drains and publishes, so every
-write reaches the middleware (or is counted as dropped). The inputs of a mapped topic
+value, pushes it into a ring that the supervisor drains and publishes, and rings the
+supervisor's doorbell, so every write reaches the middleware at once (or is counted
+as dropped). The inputs of a mapped topic
 that no component inside the runner produces are fed from a latest-value mailbox:
 at the start of each iteration a *feeder* looks at the mailbox's version and, when
 the supervisor has written a new message, decodes it into the inputs' slot, so the
@@ -17,6 +18,7 @@ from typing import Any
 
 from ._channels import Mailbox, Ring
 from ._codec import Codec, codec_for, type_name
+from ._doorbell import Doorbell
 from ._errors import ConfigurationError
 from ._ports import InputPort, OutputPort, Port, Slot
 
@@ -97,10 +99,11 @@ class _TappedOutputPort(OutputPort[Any]):
 class Tap:
     """Encodes a written value into an output ring (worker side)."""
 
-    __slots__ = ("_data", "_encode", "_max", "_ring", "_words", "oversize")
+    __slots__ = ("_bell", "_data", "_encode", "_max", "_ring", "_words", "oversize")
 
-    def __init__(self, ring: Ring, codec: Codec) -> None:
+    def __init__(self, ring: Ring, codec: Codec, doorbell: Doorbell | None = None) -> None:
         self._ring = ring
+        self._bell = doorbell.ring if doorbell is not None else None
         self._data = ring.data
         self._words = ring.data.cast("q")
         self._encode = codec.encode
@@ -119,6 +122,8 @@ class Tap:
         self._words[off >> 3] = n
         self._data[off + _LEN : off + _LEN + n] = data
         self._ring.commit()
+        if self._bell is not None:
+            self._bell()
 
     def release(self) -> None:
         self._words.release()
@@ -164,6 +169,8 @@ class WorkerPorts:
         ports: list[MappedPort],
         outputs: list[OutputPort[Any]],
         inputs: list[InputPort[Any]],
+        *,
+        doorbell: Doorbell | None = None,
     ) -> None:
         self.taps: dict[str, Tap] = {}
         self.feeders: list[Feeder] = []
@@ -176,7 +183,7 @@ class WorkerPorts:
             view = buf[mp.offset : mp.offset + mp.nbytes]
             if mp.direction == "output":
                 out = by_topic_out[mp.topic]
-                tap = Tap(Ring.open(view), _codec(out))
+                tap = Tap(Ring.open(view), _codec(out), doorbell)
                 self.taps[mp.topic] = tap
                 out._tap = tap
                 out.__class__ = _TappedOutputPort

@@ -4,7 +4,8 @@ rospy lives here and never in the worker (../shared/design.md, decisions 1 and 2
 The supervisor becomes a rospy node named after the runner. rospy's own threads
 deliver subscribed messages, which go straight into the input's mailbox (the loop
 picks up the newest one at the start of its next iteration), and send what was
-published; one thread of the bridge drains the output rings and publishes.
+published; one thread of the bridge sleeps on the doorbell that the worker rings
+after each output record, then drains the output rings and publishes.
 
 rospy allows one node per process, for the life of the process: ``init_node``
 cannot be called again with another name, and after ``signal_shutdown`` no node can
@@ -62,6 +63,7 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 from ._channels import Mailbox, Ring
+from ._doorbell import Doorbell
 from ._errors import RtcfError
 from ._health import health
 from ._log import LogRecord
@@ -76,7 +78,7 @@ if TYPE_CHECKING:
 ITERATION_INFO_LABELS = ("iteration", "stamp", "calc_duration", "jitter")
 QUEUE_SIZE = 10  # until configure() gives the runner's ros_qos_depth
 ROSOUT_QUEUE_SIZE = 100  # what rospy uses for its own /rosout publisher
-DRAIN_PERIOD_S = 0.0005  # how often the bridge thread looks at the output rings
+DRAIN_TIMEOUT_S = 0.05  # how often the publishing thread looks whether to end
 CONNECT_TIMEOUT_S = 1.0  # how long open() waits for peers the master already knows
 
 _STD = {
@@ -251,6 +253,7 @@ class Ros1Bridge:
         self._introspect_srv: Any = None
         self._faces: dict[str, ComponentFace] = {}  # per loaded component (_ros1_face)
         self._stop = threading.Event()
+        self.doorbell = Doorbell.create()  # rung by the worker: outputs to publish
         _wait_for_connections([(self._rosout, "/rosout", "sub")], CONNECT_TIMEOUT_S)
         self._thread = threading.Thread(target=self._run, name="rtcf-ros1", daemon=True)
         self._thread.start()
@@ -506,7 +509,8 @@ class Ros1Bridge:
 
     # -- the bridge thread -------------------------------------------------------
     def _run(self) -> None:
-        while not self._stop.wait(DRAIN_PERIOD_S):
+        while not self._stop.is_set():
+            self.doorbell.wait(DRAIN_TIMEOUT_S)
             with self._lock:
                 self._drain()
 
@@ -526,6 +530,7 @@ class Ros1Bridge:
         self._stop.set()
         if self._thread.is_alive():
             self._thread.join(timeout=5.0)
+        self.doorbell.close()
         with self._lock:
             self._open = False
             self._outputs.clear()

@@ -1,10 +1,11 @@
 """The ROS 2 bridge: mapped ports as ROS 2 topics, in the supervisor process only.
 
 rclpy lives here and never in the worker (../shared/design.md, decisions 1 and 2).
-A thread of the supervisor spins a node named after the runner. It publishes every
-record that the worker's output taps pushed, and writes every message of a mapped
-input topic into that input's mailbox, where the loop picks up the newest one at the
-start of its next iteration. ROS message classes cross as serialized bytes (raw
+A thread of the supervisor spins a node named after the runner and writes every
+message of a mapped input topic into that input's mailbox; another sleeps on the
+doorbell that the worker rings and publishes every record that the worker's output
+taps pushed. The loop picks up the newest message of a mailbox at the start of its
+next iteration. ROS message classes cross as serialized bytes (raw
 publish and raw subscriptions); float, int, bool and str become std_msgs Float64,
 Int64, Bool and String, and a 1-D float numpy array Float64MultiArray.
 
@@ -30,6 +31,7 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 from ._channels import Mailbox, Ring
+from ._doorbell import Doorbell
 from ._errors import RtcfError
 from ._health import health
 from ._log import LogLevel, LogRecord
@@ -42,7 +44,7 @@ if TYPE_CHECKING:
     from ._supervisor import LiveStatus, WorkerRunner
 
 ITERATION_INFO_LABELS = ("iteration", "stamp", "calc_duration", "jitter")
-SPIN_TIMEOUT_S = 0.0005  # how long the bridge thread waits for ROS events per turn
+SPIN_TIMEOUT_S = 0.05  # how often the executor thread looks whether to end
 
 _STD = {
     "float": ("std_msgs.msg", "Float64"),
@@ -158,8 +160,15 @@ class Ros2Bridge:
         self._info_offset = 0
         self._introspect_srv: Any = None
         self._running = True
+        self.doorbell = Doorbell.create()
+        # two threads: one spins the executor (subscriptions, services, parameters),
+        # one sleeps on the doorbell and publishes what the worker's outputs pushed
         self._thread = threading.Thread(target=self._spin, name="rtcf-ros2", daemon=True)
         self._thread.start()
+        self._publisher = threading.Thread(
+            target=self._publish, name="rtcf-ros2-publish", daemon=True
+        )
+        self._publisher.start()
 
     def configure(self, settings: RunnerSettings, runner: WorkerRunner) -> None:
         """The runner's QoS for mapped topics, its iteration_info topic and its
@@ -340,8 +349,6 @@ class Ros2Bridge:
 
     # -- the bridge thread -------------------------------------------------------
     def _spin(self) -> None:
-        # the lock guards the run's channels only: a service callback may wait in
-        # spin_once for the main thread, which needs the lock to close the run
         while self._running:
             try:
                 self.executor.spin_once(timeout_sec=SPIN_TIMEOUT_S)
@@ -349,6 +356,12 @@ class Ros2Bridge:
                 if not self._running:
                     return
                 raise
+
+    def _publish(self) -> None:
+        # the lock guards the run's channels only: a service callback may wait in
+        # spin_once for the main thread, which needs the lock to close the run
+        while self._running:
+            self.doorbell.wait(SPIN_TIMEOUT_S)
             with self._lock:
                 self._drain()
 
@@ -365,6 +378,8 @@ class Ros2Bridge:
     def shutdown(self) -> None:
         self._running = False
         self._thread.join(timeout=5.0)
+        self._publisher.join(timeout=5.0)
+        self.doorbell.close()
         self.executor.shutdown()
         for face in self._faces.values():
             face.close()

@@ -26,6 +26,7 @@ from multiprocessing.connection import Connection
 from typing import Any, Protocol
 
 from ._channels import Mailbox, Ring, Segment
+from ._doorbell import Doorbell
 from ._errors import RtcfError
 from ._executor import CONTROL, STOP
 from ._log import LOG_RECORD_SIZE, LogLevel, LogRecord, PythonLoggingSink, drain_channel
@@ -141,10 +142,11 @@ class WorkerRunner:
         # read EAGAIN on its control channel as the end of it
         ours.setblocking(True)
         theirs.setblocking(True)
+        bell = self.bridge.doorbell.fd if self.bridge is not None else -1
         try:
             self.process = subprocess.Popen(
                 [sys.executable, "-m", "rtcf._worker", str(theirs.fileno()), str(os.getpid())],
-                pass_fds=(theirs.fileno(),),
+                pass_fds=(theirs.fileno(),) if bell < 0 else (theirs.fileno(), bell),
                 stdin=subprocess.DEVNULL,
                 env=_worker_env(),
             )
@@ -162,6 +164,7 @@ class WorkerRunner:
             self.name,
             self.simulated,
             self.log_level,
+            bell,
         )
         for seg in (control, log, updates):  # mapped by both: the names are no longer needed
             seg.unlink()
@@ -555,6 +558,8 @@ class WorkerRunner:
 
 class Bridge(Protocol):
     """A middleware bridge in the supervisor (ROS 2, ROS 1): topics for mapped ports."""
+
+    doorbell: Doorbell  # the worker rings it after each record it pushed for the bridge
 
     def configure(self, settings: RunnerSettings, runner: WorkerRunner) -> None:
         """The runner's settings (QoS, iteration_info) and what introspection asks,

@@ -27,6 +27,7 @@ from typing import Any
 
 from ._channels import Mailbox, Ring, Segment
 from ._clock import Clock, MiddlewareClock, MonotonicClock, SimClock
+from ._doorbell import Doorbell
 from ._errors import ComponentError, ConfigurationError, GraphError, LaunchError, RtcfError
 from ._executor import STOP, StopFlag
 from ._log import LogWriter
@@ -91,6 +92,7 @@ class Worker:
         self.simulated = False
         self.realtime: RealtimeReport | None = None
         self.done = False
+        self.doorbell: Doorbell | None = None
 
     # -- the command loop ------------------------------------------------------
     def serve(self) -> int:
@@ -152,9 +154,12 @@ class Worker:
         name: str,
         simulated: bool,
         log_level: str,
+        doorbell_fd: int = -1,
     ) -> dict[str, Any]:
         # import components from exactly where the supervisor would
         sys.path[:] = [p for p in sys_path]
+        if doorbell_fd >= 0:  # inherited: rung after each record for the middleware
+            self.doorbell = Doorbell(doorbell_fd)
         control_seg = self._attach(control)
         log_seg = self._attach(log)
         self.stop = StopFlag(control_seg.buf.cast("q")[CTL_STOP : CTL_STOP + 1])
@@ -260,7 +265,9 @@ class Worker:
         trace = Trace(runner.components, runner.state) if trace_path else None
         bridge = None
         if port_seg is not None and ports:
-            bridge = WorkerPorts(port_seg.buf, ports, *runner.mapped_ports())
+            bridge = WorkerPorts(
+                port_seg.buf, ports, *runner.mapped_ports(), doorbell=self.doorbell
+            )
         try:
             if self.realtime is None:  # once per worker: scheduling, affinity, memory
                 self.realtime = apply_realtime(self.settings, simulated=self.simulated)
@@ -321,6 +328,8 @@ class Worker:
                 cell.release()
         for seg in self.segments:
             seg.close()
+        if self.doorbell is not None:
+            self.doorbell.close()
 
 
 PR_SET_PDEATHSIG = 1

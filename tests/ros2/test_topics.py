@@ -59,8 +59,11 @@ def test_sum_test_outputs_three_times_the_input(ros_node, launch_file):
         def topics():
             return dict(ros_node.get_topic_names_and_types())
 
-        assert spin_until(ros_node, lambda: ros_node.count_publishers("/rtcf/ros/out") > 0)
-        assert ros_node.count_subscribers("/rtcf/ros/in") > 0
+        assert spin_until(
+            ros_node,
+            lambda: ros_node.count_publishers("/rtcf/ros/out") > 0
+            and ros_node.count_subscribers("/rtcf/ros/in") > 0,
+        )
         assert "/rtcf/ros/blacklisted" not in topics()
         assert "/rtcf/sum1" not in topics()  # internal: not whitelisted
         assert topics()["/rtcf/ros/out"] == ["std_msgs/msg/Float64"]
@@ -172,7 +175,12 @@ def test_qos_of_mapped_topics_is_the_runners(ros_node, tmp_path):
     proc = start_rtcf("launch", path, "--middleware", "ros2")
     try:
         wait_running(proc)
-        assert spin_until(ros_node, lambda: ros_node.count_publishers("/ros/qout") > 0)
+        # Discovery reports each endpoint on its own: wait for both.
+        assert spin_until(
+            ros_node,
+            lambda: ros_node.count_publishers("/ros/qout") > 0
+            and ros_node.count_subscribers("/ros/qin") > 0,
+        )
         (pub,) = ros_node.get_publishers_info_by_topic("/ros/qout")
         assert pub.qos_profile.reliability == ReliabilityPolicy.BEST_EFFORT
         assert pub.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL

@@ -1,0 +1,99 @@
+"""Both ends of a run's port channels, in one process (the worker's and the supervisor's)."""
+
+from rtcf._channels import Mailbox, Ring
+from rtcf._codec import codec_for
+from rtcf._doorbell import Doorbell
+from rtcf._port_channels import (
+    OUTPUT_RING_RECORDS,
+    WorkerPorts,
+    mapped_ports,
+    read_record,
+    segment_size,
+)
+from rtcf._ports import InputPort, OutputPort
+
+
+def _ports():
+    out = OutputPort("/a", "out", float)
+    out.topic = "/ros/out"
+    inp = InputPort("/b", "in", float)
+    inp.topic = "/ros/in"
+    return out, inp
+
+
+def _supervisor_side(buf, ports):
+    channels = {}
+    for p in ports:
+        view = buf[p.offset : p.offset + p.nbytes]
+        if p.direction == "output":
+            channels[p.topic] = Ring.create(view, OUTPUT_RING_RECORDS, 8 + p.max_size)
+        else:
+            channels[p.topic] = Mailbox.create(view, p.max_size)
+        view.release()
+    return channels
+
+
+def test_a_write_pushes_a_record_and_rings_the_doorbell():
+    out, inp = _ports()
+    ports = mapped_ports([out], [inp])
+    buf = memoryview(bytearray(segment_size(ports)))
+    channels = _supervisor_side(buf, ports)
+    bell = Doorbell.create()
+    worker = WorkerPorts(buf, ports, [out], [inp], doorbell=bell)
+    try:
+        assert bell.wait(0.0) is False
+        out.write(2.5)
+        assert bell.wait(1.0) is True
+        ring = channels["/ros/out"]
+        start, n = ring.pending()
+        assert n == 1
+        assert codec_for(float).decode(read_record(ring, start)) == 2.5
+        ring.release(n)
+    finally:
+        worker.release()
+        for channel in channels.values():
+            channel.close()
+        bell.close()
+    assert type(out) is OutputPort  # the tap is gone with the run
+
+
+def test_a_full_output_ring_counts_the_drop_and_keeps_the_first_records():
+    out, inp = _ports()
+    ports = mapped_ports([out], [])
+    buf = memoryview(bytearray(segment_size(ports)))
+    channels = _supervisor_side(buf, ports)
+    worker = WorkerPorts(buf, ports, [out], [])
+    try:
+        for i in range(OUTPUT_RING_RECORDS + 5):
+            out.write(float(i))
+        ring = channels["/ros/out"]
+        start, n = ring.pending()
+        assert n == OUTPUT_RING_RECORDS
+        assert ring.dropped == 5
+        assert codec_for(float).decode(read_record(ring, start)) == 0.0
+        ring.release(n)
+    finally:
+        worker.release()
+        for channel in channels.values():
+            channel.close()
+
+
+def test_a_fed_input_reads_the_newest_message_of_its_mailbox():
+    out, inp = _ports()
+    ports = mapped_ports([], [inp])
+    buf = memoryview(bytearray(segment_size(ports)))
+    channels = _supervisor_side(buf, ports)
+    worker = WorkerPorts(buf, ports, [], [inp])
+    try:
+        (feeder,) = worker.feeders
+        feeder()
+        assert inp.read() is None
+        box = channels["/ros/in"]
+        box.write(codec_for(float).encode(1.0))
+        box.write(codec_for(float).encode(7.0))
+        feeder()
+        assert inp.read() == 7.0
+    finally:
+        worker.release()
+        for channel in channels.values():
+            channel.close()
