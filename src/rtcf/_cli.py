@@ -19,6 +19,7 @@ from ._clock import MonotonicClock, SimClock
 from ._deployment import Deployment, RunnerDeployment, plan
 from ._errors import ComponentError, LaunchError, RtcfError
 from ._graph import Graph, to_dot, to_mermaid
+from ._introspection import mapping
 from ._launch_xml import parse_launch_file
 from ._names import basename, namespace_of
 from ._report import format_summary, write_report
@@ -247,6 +248,9 @@ def cmd_launch(ns: argparse.Namespace) -> int:
             f"wait_policy {settings.wait_policy}), loop in worker process {runner.pid}"
         )
         _say("order: " + " -> ".join(info["order"]))
+        if bridge is not None:
+            mapped = mapping(runner.introspect(), settings.ros_mapping_whitelist)
+            _say(f"{ns.middleware}: {mapped}")
         if iterations is None:
             _say("running until Ctrl-C")
         else:

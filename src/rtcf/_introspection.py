@@ -40,6 +40,31 @@ def render(command: str, data: dict[str, Any], name: str | None = None) -> str:
     raise RtcfError(f"unknown introspection command {command!r}; use one of {', '.join(COMMANDS)}")
 
 
+def mapping(data: dict[str, Any], whitelist: str) -> str:
+    """What a run maps to the middleware, in one line: the topics it publishes (every
+    mapped output) and subscribes (mapped inputs that nothing inside produces)."""
+    published = [c for c in data["connections"] if c["ros"] and c["publishers"]]
+    subscribed = [
+        c for c in data["connections"] if c["ros"] and c["subscribers"] and not c["publishers"]
+    ]
+    if not published and not subscribed:
+        why = (
+            "ros_mapping_whitelist is empty" if not whitelist
+            else f"no topic matches ros_mapping_whitelist {whitelist!r} and not the blacklist"
+        )
+        return f"no port is mapped to a topic ({why})"
+
+    def topics(conns: list[dict[str, Any]]) -> str:
+        return ", ".join(f"{c['topic']} ({c['type'].removeprefix('builtins.')})" for c in conns)
+
+    parts = []
+    if published:
+        parts.append("publishes " + topics(published))
+    if subscribed:
+        parts.append("subscribes " + topics(subscribed))
+    return "; ".join(parts)
+
+
 def _required(command: str, name: str | None) -> str:
     if not name:
         what = "a component name" if command == "component_info" else "a topic"

@@ -1,9 +1,9 @@
 """Ports mapped to the middleware: their shared-memory channels on both sides.
 
 An output port whose topic is mapped gets a *tap*: every ``write`` also encodes the
-value, pushes it into a ring that the supervisor drains and publishes, and rings the
-supervisor's doorbell, so every write reaches the middleware at once (or is counted
-as dropped). The inputs of a mapped topic
+value and pushes it into a ring that the supervisor drains and publishes, so every
+write reaches the middleware (or is counted as dropped). After an iteration in which
+some tap pushed, the loop rings the supervisor's doorbell once. The inputs of a mapped topic
 that no component inside the runner produces are fed from a latest-value mailbox:
 at the start of each iteration a *feeder* looks at the mailbox's version and, when
 the supervisor has written a new message, decodes it into the inputs' slot, so the
@@ -99,11 +99,11 @@ class _TappedOutputPort(OutputPort[Any]):
 class Tap:
     """Encodes a written value into an output ring (worker side)."""
 
-    __slots__ = ("_bell", "_data", "_encode", "_max", "_ring", "_words", "oversize")
+    __slots__ = ("_data", "_encode", "_max", "_pushed", "_ring", "_words", "oversize")
 
-    def __init__(self, ring: Ring, codec: Codec, doorbell: Doorbell | None = None) -> None:
+    def __init__(self, ring: Ring, codec: Codec, pushed: list[int] | None = None) -> None:
         self._ring = ring
-        self._bell = doorbell.ring if doorbell is not None else None
+        self._pushed = pushed if pushed is not None else [0]  # shared by a run's taps
         self._data = ring.data
         self._words = ring.data.cast("q")
         self._encode = codec.encode
@@ -122,8 +122,7 @@ class Tap:
         self._words[off >> 3] = n
         self._data[off + _LEN : off + _LEN + n] = data
         self._ring.commit()
-        if self._bell is not None:
-            self._bell()
+        self._pushed[0] = 1
 
     def release(self) -> None:
         self._words.release()
@@ -173,6 +172,8 @@ class WorkerPorts:
         doorbell: Doorbell | None = None,
     ) -> None:
         self.taps: dict[str, Tap] = {}
+        self._pushed = [0]  # set by a tap that pushed a record since the last ring
+        self._bell = doorbell.ring if doorbell is not None else None
         self.feeders: list[Feeder] = []
         self._tapped: list[OutputPort[Any]] = []
         by_topic_in: dict[str, list[InputPort[Any]]] = {}
@@ -183,7 +184,7 @@ class WorkerPorts:
             view = buf[mp.offset : mp.offset + mp.nbytes]
             if mp.direction == "output":
                 out = by_topic_out[mp.topic]
-                tap = Tap(Ring.open(view), _codec(out), doorbell)
+                tap = Tap(Ring.open(view), _codec(out), self._pushed)
                 self.taps[mp.topic] = tap
                 out._tap = tap
                 out.__class__ = _TappedOutputPort
@@ -193,6 +194,14 @@ class WorkerPorts:
                 slots = [p._slot for p in readers]
                 self.feeders.append(Feeder(Mailbox.open(view), _codec(readers[0]), slots))
             view.release()
+
+    def ring_if_pushed(self) -> None:
+        """After an iteration (outside its measured time): wake the supervisor once if
+        any output pushed a record; it drains every ring when it wakes."""
+        if self._pushed[0]:
+            self._pushed[0] = 0
+            if self._bell is not None:
+                self._bell()
 
     def counts(self) -> dict[str, int]:
         """Messages each output could not hand over because they were too large."""

@@ -276,7 +276,7 @@ class Worker:
                 result = runner.run(
                     iterations,
                     timing_ring=ring,
-                    on_iteration=trace.sample if trace else None,
+                    on_iteration=_after_iteration(trace, bridge),
                     feeders=(self._updates(), *(bridge.feeders if bridge else ())),
                 )
             realtime = self.realtime.to_dict()
@@ -330,6 +330,23 @@ class Worker:
             seg.close()
         if self.doorbell is not None:
             self.doorbell.close()
+
+
+def _after_iteration(
+    trace: Trace | None, ports: WorkerPorts | None
+) -> Callable[[], None] | None:
+    """What runs after each iteration, outside its measured time: the trace's sample,
+    and one ring of the supervisor's doorbell when a mapped output was written."""
+    ring = ports.ring_if_pushed if ports is not None and ports.taps else None
+    sample = trace.sample if trace is not None else None
+    if sample is None or ring is None:
+        return sample or ring
+
+    def both() -> None:
+        sample()
+        ring()
+
+    return both
 
 
 PR_SET_PDEATHSIG = 1

@@ -67,7 +67,11 @@ def test_rtcf_launch_middleware_ros1_gives_the_same_result(topics, file):
     prefix = "/rtcf" if file == "sum_test.launch" else ""
     factor = 3.0 if file == "sum_test.launch" else 1.0
     try:
-        wait_for(launch, "running until Ctrl-C", timeout=30)
+        said = wait_for(launch, "running until Ctrl-C", timeout=30)
+        assert (
+            f"rtcf: ros1: publishes {prefix}/ros/out (float); "
+            f"subscribes {prefix}/ros/in (float)"
+        ) in said
         assert wait_until(
             lambda: {f"{prefix}/ros/in", f"{prefix}/ros/out"} <= _topics()
         ), _topics()

@@ -51,7 +51,9 @@ def test_sum_test_outputs_three_times_the_input(ros_node, launch_file):
     the ROS 1-style file and from its ROS 2 launch XML twin."""
     proc = start_rtcf("launch", "rtcf_examples", launch_file, "--middleware", "ros2")
     try:
-        wait_running(proc)
+        said = wait_running(proc)
+        mapped = "publishes /rtcf/ros/out (float); subscribes /rtcf/ros/in (float)"
+        assert f"rtcf: ros2: {mapped}" in said
         got = []
         ros_node.create_subscription(Float64, "/rtcf/ros/out", lambda m: got.append(m.data), 10)
         pub = ros_node.create_publisher(Float64, "/rtcf/ros/in", 10)

@@ -77,3 +77,36 @@ def test_a_cycle_is_reported_not_an_order() -> None:
     assert d["order"] == [] and "cycle" in d["problem"]
     with pytest.raises(RtcfError, match=r"no order: .*cycle"):
         render("component_order", d)
+
+
+def test_mapping_names_what_is_published_and_subscribed() -> None:
+    from rtcf._introspection import mapping
+
+    class Reader(Component):
+        def configure(self) -> None:
+            self.inp = self.add_input("ros/cmd", int)
+
+    d = data()
+    assert mapping(d, "/ns/ros/.*") == "publishes /ns/ros/y (float)"
+    r = Runner(RunnerSettings(ros_mapping_whitelist="/ns/ros/.*"), clock=SimClock())
+    r.load(ComponentSpec("sink", Sink, namespace="/ns"))
+    r.load(ComponentSpec("reader", Reader, namespace="/ns"))
+    assert mapping(r.introspect(), "/ns/ros/.*") == (
+        "publishes /ns/ros/y (float); subscribes /ns/ros/cmd (int)"
+    )  # /ns/x has no producer either, but is not whitelisted
+
+
+def test_mapping_says_why_nothing_is_mapped() -> None:
+    from rtcf._introspection import mapping
+
+    empty = Runner(RunnerSettings(), clock=SimClock())
+    empty.load(ComponentSpec("sink", Sink, namespace="/ns"))
+    assert mapping(empty.introspect(), "") == (
+        "no port is mapped to a topic (ros_mapping_whitelist is empty)"
+    )
+    r = Runner(RunnerSettings(ros_mapping_whitelist="/other/.*"), clock=SimClock())
+    r.load(ComponentSpec("sink", Sink, namespace="/ns"))
+    assert mapping(r.introspect(), "/other/.*") == (
+        "no port is mapped to a topic "
+        "(no topic matches ros_mapping_whitelist '/other/.*' and not the blacklist)"
+    )

@@ -33,7 +33,7 @@ def _supervisor_side(buf, ports):
     return channels
 
 
-def test_a_write_pushes_a_record_and_rings_the_doorbell():
+def test_writes_push_records_and_the_doorbell_rings_once_after_the_iteration():
     out, inp = _ports()
     ports = mapped_ports([out], [inp])
     buf = memoryview(bytearray(segment_size(ports)))
@@ -41,14 +41,21 @@ def test_a_write_pushes_a_record_and_rings_the_doorbell():
     bell = Doorbell.create()
     worker = WorkerPorts(buf, ports, [out], [inp], doorbell=bell)
     try:
+        worker.ring_if_pushed()  # nothing written: no ring
         assert bell.wait(0.0) is False
         out.write(2.5)
+        out.write(3.5)
+        assert bell.wait(0.0) is False  # not during the iteration
+        worker.ring_if_pushed()
         assert bell.wait(1.0) is True
         ring = channels["/ros/out"]
         start, n = ring.pending()
-        assert n == 1
+        assert n == 2
         assert codec_for(float).decode(read_record(ring, start)) == 2.5
+        assert codec_for(float).decode(read_record(ring, start + 1)) == 3.5
         ring.release(n)
+        worker.ring_if_pushed()  # rung once per iteration that wrote
+        assert bell.wait(0.0) is False
     finally:
         worker.release()
         for channel in channels.values():
@@ -58,7 +65,7 @@ def test_a_write_pushes_a_record_and_rings_the_doorbell():
 
 
 def test_a_full_output_ring_counts_the_drop_and_keeps_the_first_records():
-    out, inp = _ports()
+    out, _ = _ports()
     ports = mapped_ports([out], [])
     buf = memoryview(bytearray(segment_size(ports)))
     channels = _supervisor_side(buf, ports)
@@ -79,7 +86,7 @@ def test_a_full_output_ring_counts_the_drop_and_keeps_the_first_records():
 
 
 def test_a_fed_input_reads_the_newest_message_of_its_mailbox():
-    out, inp = _ports()
+    _, inp = _ports()
     ports = mapped_ports([], [inp])
     buf = memoryview(bytearray(segment_size(ports)))
     channels = _supervisor_side(buf, ports)
