@@ -1,12 +1,13 @@
 """A doorbell: how the worker wakes the supervisor when a mapped output was written.
 
 An eventfd (Linux). The supervisor's middleware bridge makes it and its publishing
-thread sleeps on it, so that a message reaches the middleware as soon as it is in its
-ring, and an idle bridge costs no CPU (polling the rings every half millisecond cost
-about a third of a core). The worker inherits the descriptor and rings it after each
-record it commits: one non-blocking write(2), about 0.3 us, that never waits (the
-counter saturates only after 2**64 - 2 rings). Many rings before the supervisor wakes
-up make one wake-up: it drains every ring each time.
+thread sleeps on it, so that a message reaches the middleware as soon as its
+iteration has ended, and an idle bridge costs no CPU (polling the rings every half
+millisecond cost about a third of a core). The worker inherits the descriptor and
+rings it once after each iteration in which an output pushed a record, outside the
+iteration's measured time: one non-blocking write(2) that never waits (the counter
+saturates only after 2**64 - 2 rings). Rings that come before the supervisor wakes
+make one wake-up: it drains every ring each time.
 """
 
 from __future__ import annotations
