@@ -103,9 +103,11 @@ class MiddlewareClock:
     """Time from the middleware's /clock (``use_sim_time``), as the worker sees it.
 
     The supervisor writes every /clock message (int64 nanoseconds) into a mailbox;
-    ``now_ns`` is the newest. ``sleep_until_ns`` polls it every ``poll_ns`` of
-    real time until it reaches the deadline, so the loop runs one iteration per
-    period of /clock time. Before the first message ``now_ns`` waits for one.
+    ``now_ns`` is the newest. ``sleep_until_ns`` waits until it reaches the deadline,
+    so the loop runs one iteration per period of /clock time: asleep on ``doorbell``
+    (which the supervisor rings with every message and to stop the loop), or without
+    one polling every ``poll_ns`` of real time. Before the first message ``now_ns``
+    waits for one.
     When /clock stops, the loop waits; when it jumps forward, the wait policy
     decides (absolute: the missed iterations run back to back; relative: the grid
     moves); when it goes back, the loop waits until /clock reaches the next
@@ -114,13 +116,23 @@ class MiddlewareClock:
 
     simulated = True  # calculation and jitter in /clock time are not measurements
 
-    def __init__(self, mailbox: Any, stop: Any, *, poll_ns: int = 200_000) -> None:
+    def __init__(
+        self, mailbox: Any, stop: Any, *, poll_ns: int = 200_000, doorbell: Any = None
+    ) -> None:
         self._box = mailbox
         self._stop = stop
         self._buf = bytearray(8)
         self._now = 0
         self._seen = False
         self._poll = poll_ns * 1e-9
+        self._bell = doorbell
+
+    def _wait(self) -> None:
+        if self._bell is not None:
+            # bounded: a signal (Ctrl-C) sets the stop word without ringing
+            self._bell.wait(0.05)
+        else:
+            time.sleep(self._poll)
 
     def _update(self) -> None:
         n = self._box.try_read_into(self._buf)
@@ -131,14 +143,14 @@ class MiddlewareClock:
     def now_ns(self) -> int:
         self._update()
         while not self._seen and not self._stop[0]:
-            time.sleep(0.001)
+            self._wait()
             self._update()
         return self._now
 
     def sleep_until_ns(self, deadline_ns: int) -> None:
         self._update()
         while self._now < deadline_ns and not self._stop[0]:
-            time.sleep(self._poll)
+            self._wait()
             self._update()
 
 

@@ -8,12 +8,20 @@ rings it once after each iteration in which an output pushed a record, outside t
 iteration's measured time: one non-blocking write(2) that never waits (the counter
 saturates only after 2**64 - 2 rings). Rings that come before the supervisor wakes
 make one wake-up: it drains every ring each time.
+
+Under ``use_sim_time`` a second doorbell goes the other way: the supervisor rings it
+with every /clock message (and when it asks the loop to stop), and the worker's
+clock sleeps on it rather than polling the clock's mailbox.
 """
 
 from __future__ import annotations
 
 import os
 import select
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from ._channels import Mailbox
 
 _ONE = (1).to_bytes(8, "little")
 
@@ -53,6 +61,21 @@ class Doorbell:
         return True
 
     def close(self) -> None:
-        if self.fd >= 0:
-            os.close(self.fd)
-            self.fd = -1
+        fd, self.fd = self.fd, -1  # first: a late ring must not find the number
+        if fd >= 0:
+            os.close(fd)
+
+
+class RungMailbox:
+    """A latest-value mailbox whose every write also rings a doorbell, for a reader
+    that sleeps on the doorbell instead of polling the mailbox (the worker's /clock)."""
+
+    __slots__ = ("bell", "box")
+
+    def __init__(self, box: Mailbox, bell: Doorbell) -> None:
+        self.box = box
+        self.bell = bell
+
+    def write(self, data: bytes) -> None:
+        self.box.write(data)
+        self.bell.ring()

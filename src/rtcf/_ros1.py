@@ -63,7 +63,7 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 from ._channels import Mailbox, Ring
-from ._doorbell import Doorbell
+from ._doorbell import Doorbell, RungMailbox
 from ._errors import RtcfError
 from ._health import health
 from ._log import LogRecord
@@ -244,7 +244,7 @@ class Ros1Bridge:
         self._outputs: list[tuple[Ring, Any, Any, str]] = []  # ring, publisher, raw msg, kind
         self._inputs: dict[str, tuple[Mailbox, Callable[[bytes], bytes | None]]] = {}
         self._clock_sub: Any = None
-        self._clock_box: Mailbox | None = None
+        self._clock_box: RungMailbox | None = None
         self._info_pub: Any = None
         self._info_raw: Any = None
         self._info_prefix = b""
@@ -474,7 +474,7 @@ class Ros1Bridge:
         array.header.stamp = self._rospy.Time.now()
         self._diagnostics.publish(array)
 
-    def follow_clock(self, box: Mailbox) -> None:
+    def follow_clock(self, box: RungMailbox) -> None:
         """use_sim_time: copy every /clock message (as int64 ns) into ``box``."""
         from rosgraph_msgs.msg import Clock
 

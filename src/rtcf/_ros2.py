@@ -31,7 +31,7 @@ from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
 from ._channels import Mailbox, Ring
-from ._doorbell import Doorbell
+from ._doorbell import Doorbell, RungMailbox
 from ._errors import RtcfError
 from ._health import health
 from ._log import LogLevel, LogRecord
@@ -293,7 +293,7 @@ class Ros2Bridge:
         array.header.stamp = self.node.get_clock().now().to_msg()
         self._diagnostics.publish(array)
 
-    def follow_clock(self, box: Mailbox) -> None:
+    def follow_clock(self, box: RungMailbox) -> None:
         """use_sim_time: copy every /clock message (as int64 ns) into ``box``."""
         from rclpy.qos import QoSProfile, ReliabilityPolicy
         from rosgraph_msgs.msg import Clock

@@ -26,7 +26,7 @@ from multiprocessing.connection import Connection
 from typing import Any, Protocol
 
 from ._channels import Mailbox, Ring, Segment
-from ._doorbell import Doorbell
+from ._doorbell import Doorbell, RungMailbox
 from ._errors import RtcfError
 from ._executor import CONTROL, STOP
 from ._log import LOG_RECORD_SIZE, LogLevel, LogRecord, PythonLoggingSink, drain_channel
@@ -102,6 +102,7 @@ class WorkerRunner:
         self._ctl: memoryview | None = None
         self._log_ring: Ring | None = None
         self._clock_box: Mailbox | None = None
+        self._clock_bell: Doorbell | None = None  # rung with each /clock message
         self._timing: tuple[Ring, list[str], TimingAggregate] | None = None
         self._events: dict[str, Any] = {}
         self.exit_reported = False
@@ -131,7 +132,8 @@ class WorkerRunner:
             clock_view = control.buf[CLOCK_MAILBOX_OFFSET:]
             self._clock_box = Mailbox.create(clock_view, 8)
             clock_view.release()
-            self.bridge.follow_clock(self._clock_box)
+            self._clock_bell = Doorbell.create()
+            self.bridge.follow_clock(RungMailbox(self._clock_box, self._clock_bell))
         log = self._segment(Ring.nbytes(self.log_capacity, LOG_RECORD_SIZE))
         self._log_ring = Ring.create(log.buf, self.log_capacity, LOG_RECORD_SIZE)
         updates = self._segment(Ring.nbytes(UPDATE_RING_RECORDS, UPDATE_RECORD_SIZE))
@@ -143,10 +145,11 @@ class WorkerRunner:
         ours.setblocking(True)
         theirs.setblocking(True)
         bell = self.bridge.doorbell.fd if self.bridge is not None else -1
+        clock_bell = self._clock_bell.fd if self._clock_bell is not None else -1
         try:
             self.process = subprocess.Popen(
                 [sys.executable, "-m", "rtcf._worker", str(theirs.fileno()), str(os.getpid())],
-                pass_fds=(theirs.fileno(),) if bell < 0 else (theirs.fileno(), bell),
+                pass_fds=tuple(fd for fd in (theirs.fileno(), bell, clock_bell) if fd >= 0),
                 stdin=subprocess.DEVNULL,
                 env=_worker_env(),
             )
@@ -165,6 +168,7 @@ class WorkerRunner:
             self.simulated,
             self.log_level,
             bell,
+            clock_bell,
         )
         for seg in (control, log, updates):  # mapped by both: the names are no longer needed
             seg.unlink()
@@ -405,11 +409,19 @@ class WorkerRunner:
         """End the loop after the current iteration (safe from a signal handler)."""
         if self._ctl is not None:
             self._ctl[CTL_STOP] = STOP
+            self._wake_clock()
 
     def request_control(self) -> None:
         """End the loop after the iteration so a request can be served (it resumes after)."""
         if self._ctl is not None and self._ctl[CTL_STOP] != STOP:
             self._ctl[CTL_STOP] = CONTROL
+            self._wake_clock()
+
+    def _wake_clock(self) -> None:
+        """A loop waiting for /clock time sees the stop word at once."""
+        bell = self._clock_bell
+        if bell is not None and bell.fd >= 0:
+            bell.ring()
 
     @property
     def stop_reason(self) -> int:
@@ -547,6 +559,8 @@ class WorkerRunner:
         if self._clock_box is not None:
             self._clock_box.close()
             self._clock_box = None
+        if self._clock_bell is not None:
+            self._clock_bell.close()
         for seg in list(self._segments):
             self._close_segment(seg)
 
@@ -574,7 +588,7 @@ class Bridge(Protocol):
 
     def log(self, rec: LogRecord) -> None: ...
 
-    def follow_clock(self, box: Mailbox) -> None: ...
+    def follow_clock(self, box: RungMailbox) -> None: ...
 
     def component_loaded(self, info: dict[str, Any], runner: WorkerRunner) -> None:
         """A component was loaded: show it (a node of its own name, its parameters)."""

@@ -92,7 +92,8 @@ class Worker:
         self.simulated = False
         self.realtime: RealtimeReport | None = None
         self.done = False
-        self.doorbell: Doorbell | None = None
+        self.doorbell: Doorbell | None = None  # the worker rings: outputs to publish
+        self.clock_doorbell: Doorbell | None = None  # the supervisor rings: /clock
 
     # -- the command loop ------------------------------------------------------
     def serve(self) -> int:
@@ -155,6 +156,7 @@ class Worker:
         simulated: bool,
         log_level: str,
         doorbell_fd: int = -1,
+        clock_doorbell_fd: int = -1,
     ) -> dict[str, Any]:
         # import components from exactly where the supervisor would
         sys.path[:] = [p for p in sys_path]
@@ -181,7 +183,9 @@ class Worker:
             view = control_seg.buf[CLOCK_MAILBOX_OFFSET:]
             self.clock_box = Mailbox.open(view)
             view.release()
-            clock = MiddlewareClock(self.clock_box, self.stop.cell)
+            if clock_doorbell_fd >= 0:  # rung with every /clock message
+                self.clock_doorbell = Doorbell(clock_doorbell_fd)
+            clock = MiddlewareClock(self.clock_box, self.stop.cell, doorbell=self.clock_doorbell)
         else:
             clock = MonotonicClock()
         self.runner = Runner(
@@ -328,8 +332,9 @@ class Worker:
                 cell.release()
         for seg in self.segments:
             seg.close()
-        if self.doorbell is not None:
-            self.doorbell.close()
+        for bell in (self.doorbell, self.clock_doorbell):
+            if bell is not None:
+                bell.close()
 
 
 def _after_iteration(
