@@ -157,6 +157,18 @@ def test_per_component_times_are_split() -> None:
     assert _jitter_calc(ex)[1] == [400, 1200]
 
 
+def test_feeders_count_in_the_iteration_not_in_the_first_component() -> None:
+    # reads: 0 start; per iteration: t0, after the feeders, after update 0, after update 1
+    clock = SimClock(cost_ns=_costs({2: 50, 3: 100, 4: 300}))
+    ex, _ = _executor(clock, updates=2)
+    fed: list[int] = []
+    ex.feeders = (lambda: fed.append(clock._now),)
+    ex.run(1, StopFlag())
+    assert fed == [0]  # before the components, at the iteration's start
+    assert _per_component(ex) == [100, 300]
+    assert _jitter_calc(ex)[1] == [450]
+
+
 def test_time_ns_is_relative_to_the_first_scheduled_start() -> None:
     clock = SimClock(123_456)
     ex, (probe,) = _executor(clock)
