@@ -29,6 +29,19 @@ class Codec:
     encode: Callable[[Any], bytes]
     decode: Callable[[bytes], Any]
     max_size: int  # bytes a record of this type may take in a channel
+    # decode the first n bytes of a buffer; fixed-size kinds read it in place, with
+    # no copy (the worker's feeders, once per new message, in the loop)
+    decode_from: Callable[[bytearray, int], Any] | None = None
+
+    def decode_buffer(self) -> Callable[[bytearray, int], Any]:
+        if self.decode_from is not None:
+            return self.decode_from
+        decode = self.decode
+
+        def copy_and_decode(buf: bytearray, n: int) -> Any:
+            return decode(bytes(buf[:n]))
+
+        return copy_and_decode
 
 
 def _encode_str(v: Any) -> bytes:
@@ -77,11 +90,20 @@ def _encode_ros1(msg: Any) -> bytes:
 def codec_for(cls: type, *, max_message_bytes: int = 64 * 1024) -> Codec | None:
     """The codec of a port type, or None if values of it cannot cross."""
     if cls is bool:
-        return Codec("bool", lambda v: b"\x01" if v else b"\x00", lambda b: b != b"\x00", 1)
+        return Codec(
+            "bool", lambda v: b"\x01" if v else b"\x00", lambda b: b != b"\x00", 1,
+            lambda buf, n: buf[0] != 0,
+        )
     if cls is int:
-        return Codec("int", _I64.pack, lambda b: _I64.unpack(b)[0], 8)
+        return Codec(
+            "int", _I64.pack, lambda b: _I64.unpack(b)[0], 8,
+            lambda buf, n: _I64.unpack_from(buf)[0],
+        )
     if cls is float:
-        return Codec("float", lambda v: _F64.pack(float(v)), lambda b: _F64.unpack(b)[0], 8)
+        return Codec(
+            "float", lambda v: _F64.pack(float(v)), lambda b: _F64.unpack(b)[0], 8,
+            lambda buf, n: _F64.unpack_from(buf)[0],
+        )
     if cls is str:
         return Codec("str", _encode_str, _decode_str, max_message_bytes)
     if cls.__module__ == "numpy" and cls.__name__ == "ndarray":

@@ -137,7 +137,7 @@ class Feeder:
     def __init__(self, box: Mailbox, codec: Codec, slots: list[Slot]) -> None:
         self._box = box
         self._buf = bytearray(box.size)
-        self._decode = codec.decode
+        self._decode = codec.decode_buffer()
         self._seen = box.version
         self.slots = slots
 
@@ -150,7 +150,7 @@ class Feeder:
         if n < 0:  # changed during the copy: the next iteration takes it
             return
         self._seen = version
-        value = self._decode(bytes(self._buf[:n]))
+        value = self._decode(self._buf, n)
         for slot in self.slots:
             slot.value = value
             slot.seq += 1

@@ -1,5 +1,7 @@
 """Both ends of a run's port channels, in one process (the worker's and the supervisor's)."""
 
+import pytest
+
 from rtcf._channels import Mailbox, Ring
 from rtcf._codec import codec_for
 from rtcf._doorbell import Doorbell
@@ -100,6 +102,59 @@ def test_a_fed_input_reads_the_newest_message_of_its_mailbox():
         box.write(codec_for(float).encode(7.0))
         feeder()
         assert inp.read() == 7.0
+    finally:
+        worker.release()
+        for channel in channels.values():
+            channel.close()
+
+
+@pytest.mark.parametrize(
+    "cls, values",
+    [
+        (float, [1.25, -0.0, 1e300]),
+        (int, [0, -(2**63), 2**63 - 1]),
+        (bool, [True, False]),
+        (str, ["héllo", "", "x" * 100]),
+    ],
+)
+def test_a_fed_input_decodes_every_kind_from_its_buffer(cls, values):
+    inp = InputPort("/b", "in", cls)
+    inp.topic = "/ros/in"
+    ports = mapped_ports([], [inp])
+    buf = memoryview(bytearray(segment_size(ports)))
+    channels = _supervisor_side(buf, ports)
+    worker = WorkerPorts(buf, ports, [], [inp])
+    codec = codec_for(cls)
+    try:
+        (feeder,) = worker.feeders
+        for value in values:
+            channels["/ros/in"].write(codec.encode(value))
+            feeder()
+            got = inp.read()
+            assert type(got) is cls and got == value
+    finally:
+        worker.release()
+        for channel in channels.values():
+            channel.close()
+
+
+def test_a_fed_float_array_is_a_copy():
+    np = pytest.importorskip("numpy")
+    inp = InputPort("/b", "in", np.ndarray)
+    inp.topic = "/ros/in"
+    ports = mapped_ports([], [inp])
+    buf = memoryview(bytearray(segment_size(ports)))
+    channels = _supervisor_side(buf, ports)
+    worker = WorkerPorts(buf, ports, [], [inp])
+    try:
+        (feeder,) = worker.feeders
+        channels["/ros/in"].write(codec_for(np.ndarray).encode(np.array([1.0, 2.0])))
+        feeder()
+        first = inp.read()
+        channels["/ros/in"].write(codec_for(np.ndarray).encode(np.array([3.0])))
+        feeder()
+        assert first.tolist() == [1.0, 2.0]  # not overwritten by the next message
+        assert inp.read().tolist() == [3.0]
     finally:
         worker.release()
         for channel in channels.values():
