@@ -101,9 +101,9 @@ class Tap:
 
     __slots__ = ("_data", "_encode", "_max", "_pushed", "_ring", "_words", "oversize")
 
-    def __init__(self, ring: Ring, codec: Codec, pushed: list[int] | None = None) -> None:
+    def __init__(self, ring: Ring, codec: Codec, pushed: list[int]) -> None:
         self._ring = ring
-        self._pushed = pushed if pushed is not None else [0]  # shared by a run's taps
+        self._pushed = pushed  # one flag shared by a run's taps: set after a push
         self._data = ring.data
         self._words = ring.data.cast("q")
         self._encode = codec.encode

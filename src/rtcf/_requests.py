@@ -13,6 +13,7 @@ import threading
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
 
+from ._errors import RtcfError
 from ._executor import STOP
 
 if TYPE_CHECKING:
@@ -93,3 +94,40 @@ class RequestQueue:
                 return
             req.reason = reason
             req.done.set()
+
+
+def serve_request(
+    req: Request,
+    runner: WorkerRunner,
+    say: Callable[[str], None],
+    load: Callable[[Any], str],
+    unloaded: Callable[[str], str],
+) -> None:
+    """Serve one request on the main thread and answer it, whatever happens.
+
+    ``load(payload)`` loads a component and returns the answer's text;
+    ``unloaded(full_name)`` forgets an unloaded component's launcher and returns the
+    answer's text. A refusal names the request and why; a malformed request never
+    ends the runner.
+    """
+    try:
+        if req.kind == "load":
+            req.reason = load(req.payload)
+        elif req.kind == "unload":
+            full = req.payload if req.payload.startswith("/") else "/" + req.payload
+            runner.unload(full)
+            req.reason = unloaded(full)
+            say(f"unloaded {full}")
+        elif req.kind == "activate":
+            runner.activate()
+        elif req.kind == "deactivate":
+            runner.deactivate()
+        req.ok = True
+    except RtcfError as exc:
+        req.reason = str(exc)
+        say(f"refused {req.kind}: {exc}")
+    except Exception as exc:  # a malformed request must not end the runner
+        req.reason = f"{type(exc).__name__}: {exc}"
+        say(f"refused {req.kind}: {req.reason}")
+    finally:
+        req.done.set()

@@ -48,7 +48,7 @@ from types import FrameType
 from typing import TYPE_CHECKING, Any
 
 from ._errors import RtcfError
-from ._requests import Request, RequestQueue
+from ._requests import Request, RequestQueue, serve_request
 from ._runner import ComponentSpec
 from ._settings import RunnerSettings
 
@@ -218,37 +218,23 @@ def runner_main(argv: list[str] | None = None) -> int:
     signal.signal(signal.SIGINT, handler)
     signal.signal(signal.SIGTERM, handler)
 
+    def load(payload: Any) -> str:
+        spec, launcher = _spec(payload)
+        # the parameter server as it is now: private, namespace and absolute names
+        runner.set_parameters(_leaves(rospy.get_param("/", {})))
+        runner.load(spec, launcher=launcher)
+        with lock:
+            launchers[spec.full_name] = launcher
+        _say(name, f"loaded {spec.full_name} ({spec.module}.{spec.class_name})")
+        return f"loaded {spec.full_name}"
+
+    def unloaded(full: str) -> str:
+        with lock:
+            launchers.pop(full, None)
+        return f"unloaded {full}"
+
     def serve(req: Request) -> None:
-        try:
-            if req.kind == "load":
-                spec, launcher = _spec(req.payload)
-                # the parameter server as it is now: private, namespace and absolute names
-                runner.set_parameters(_leaves(rospy.get_param("/", {})))
-                runner.load(spec, launcher=launcher)
-                with lock:
-                    launchers[spec.full_name] = launcher
-                req.reason = f"loaded {spec.full_name}"
-                _say(name, f"loaded {spec.full_name} ({spec.module}.{spec.class_name})")
-            elif req.kind == "unload":
-                full = req.payload if req.payload.startswith("/") else "/" + req.payload
-                runner.unload(full)
-                with lock:
-                    launchers.pop(full, None)
-                req.reason = f"unloaded {full}"
-                _say(name, f"unloaded {full}")
-            elif req.kind == "activate":
-                runner.activate()
-            elif req.kind == "deactivate":
-                runner.deactivate()
-            req.ok = True
-        except RtcfError as exc:
-            req.reason = str(exc)
-            _say(name, f"refused {req.kind}: {exc}")
-        except Exception as exc:  # a malformed request must not end the runner
-            req.reason = f"{type(exc).__name__}: {exc}"
-            _say(name, f"refused {req.kind}: {req.reason}")
-        finally:
-            req.done.set()
+        serve_request(req, runner, lambda text: _say(name, text), load, unloaded)
 
     status = 0
     iterations = 0

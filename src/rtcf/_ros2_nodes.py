@@ -34,7 +34,7 @@ from typing import Any
 
 from ._errors import RtcfError
 from ._executor import STOP
-from ._requests import Request, RequestQueue
+from ._requests import Request, RequestQueue, serve_request
 from ._ros2_face import ComponentFace
 from ._runner import ComponentSpec
 from ._settings import RunnerSettings
@@ -175,34 +175,21 @@ def runner_main(argv: list[str] | None = None) -> int:
     signal.signal(signal.SIGINT, handler)
     signal.signal(signal.SIGTERM, handler)
 
+    def load(payload: Any) -> str:
+        spec, launcher = _spec(payload)
+        runner.load(spec, launcher=launcher)
+        launchers[spec.full_name] = launcher
+        if launcher:  # it called us, so it exists even if the graph lags behind
+            presence.seen.add(launcher)
+        _say(name, f"loaded {spec.full_name} ({spec.module}.{spec.class_name})")
+        return json.dumps(runner.components[spec.full_name])
+
+    def unloaded(full: str) -> str:
+        launchers.pop(full, None)
+        return ""
+
     def serve(req: Request) -> None:
-        try:
-            if req.kind == "load":
-                spec, launcher = _spec(req.payload)
-                runner.load(spec, launcher=launcher)
-                req.reason = json.dumps(runner.components[spec.full_name])
-                launchers[spec.full_name] = launcher
-                if launcher:  # it called us, so it exists even if the graph lags behind
-                    presence.seen.add(launcher)
-                _say(name, f"loaded {spec.full_name} ({spec.module}.{spec.class_name})")
-            elif req.kind == "unload":
-                full = req.payload if req.payload.startswith("/") else "/" + req.payload
-                runner.unload(full)
-                launchers.pop(full, None)
-                _say(name, f"unloaded {full}")
-            elif req.kind == "activate":
-                runner.activate()
-            elif req.kind == "deactivate":
-                runner.deactivate()
-            req.ok = True
-        except RtcfError as exc:
-            req.reason = str(exc)
-            _say(name, f"refused {req.kind}: {exc}")
-        except Exception as exc:  # a malformed request must not end the runner
-            req.reason = f"{type(exc).__name__}: {exc}"
-            _say(name, f"refused {req.kind}: {req.reason}")
-        finally:
-            req.done.set()
+        serve_request(req, runner, lambda text: _say(name, text), load, unloaded)
 
     status = 0
     try:
