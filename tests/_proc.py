@@ -42,3 +42,11 @@ def read_rest(proc, timeout=60.0):
     """Wait for ``proc`` to end; return (stdout, all of stderr including what was read)."""
     out, err = proc.communicate(timeout=timeout)
     return out, _SEEN.pop(proc.pid, "") + (err or "")
+
+
+def rtcf_shm_names():
+    """Names in /dev/shm that rtcf made (there must never be any: its memory is anonymous)."""
+    try:
+        return sorted(n for n in os.listdir("/dev/shm") if n.startswith("rtcf"))
+    except FileNotFoundError:
+        return []

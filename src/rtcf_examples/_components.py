@@ -2,9 +2,37 @@
 
 from __future__ import annotations
 
+import importlib
 import math
 
 import rtcf
+
+_BUILTIN_TYPES: dict[str, type] = {"float": float, "int": int, "bool": bool, "str": str}
+
+
+def message_class(name: str) -> type:
+    """The class of a type name: ``float``, ``pkg/Type`` (ROS 1) or ``pkg/msg/Type`` (ROS 2).
+
+    Both ROS versions generate the Python class ``Type`` in the module ``pkg.msg``.
+    """
+    if name in _BUILTIN_TYPES:
+        return _BUILTIN_TYPES[name]
+    parts = name.split("/")
+    if len(parts) == 3 and parts[1] == "msg":
+        parts = [parts[0], parts[2]]
+    if len(parts) != 2 or not all(parts):
+        raise ValueError(
+            f"msg_type {name!r} is not float, int, bool, str, pkg/Type (ROS 1) or "
+            "pkg/msg/Type (ROS 2)"
+        )
+    package, type_name = parts
+    try:
+        cls = getattr(importlib.import_module(f"{package}.msg"), type_name)
+    except (ImportError, AttributeError) as exc:
+        raise ValueError(f"msg_type {name!r} cannot be imported: {exc}") from None
+    if not isinstance(cls, type):
+        raise ValueError(f"msg_type {name!r} is not a class")
+    return cls
 
 
 class BareMinimum(rtcf.Component):
@@ -29,11 +57,19 @@ class BareMinimum(rtcf.Component):
 
 
 class Identity(rtcf.Component):
-    """Copies ``in_port`` to ``out_port`` whenever a new value arrives."""
+    """Copies ``in_port`` to ``out_port`` whenever a new value arrives.
+
+    ``~msg_type`` is the ports' type: ``float`` (the default), ``int``, ``bool``,
+    ``str``, or a ROS message type: ``rtcf_example_msgs/Custom`` (ROS 1, the original's
+    Identity example, see custom_message/custom_message.launch) or
+    ``geometry_msgs/msg/PointStamped`` (ROS 2). A component of your own would just
+    import its message class: ``from rtcf_example_msgs.msg import Custom``.
+    """
 
     def configure(self) -> None:
-        self.port_in = self.add_input("in_port", float)
-        self.port_out = self.add_output("out_port", float)
+        kind = message_class(str(self.params.get("~msg_type", "float")))
+        self.port_in = self.add_input("in_port", kind)
+        self.port_out = self.add_output("out_port", kind)
 
     def update(self) -> None:
         if self.port_in.has_new_data:

@@ -1,7 +1,8 @@
 """Shared-memory channels between real processes, at full speed on both sides.
 
 The child process runs ``sys.executable -c <code>``; the test process is the other
-side. Each test creates its segments itself and unlinks them in ``finally``.
+side. Each test creates its segments itself and hands them to the child as inherited
+file descriptors (anonymous memory: nothing has a name in /dev/shm).
 """
 
 from __future__ import annotations
@@ -14,11 +15,14 @@ import time
 from collections.abc import Iterator
 from contextlib import contextmanager
 from itertools import pairwise
+from pathlib import Path
 
 import pytest
 
-from rtcf._channels import Mailbox, Ring, Segment, leftover_segments
+from rtcf._core._rings import Mailbox, Ring
+from rtcf._runtime._shm import Segment
 
+from .._proc import rtcf_shm_names
 from .conftest import SRC
 
 pytestmark = pytest.mark.integration
@@ -39,9 +43,10 @@ def pattern(seq: int) -> int:
 
 PREAMBLE = """
 import sys, time
-from rtcf._channels import Mailbox, Ring, Segment
+from rtcf._core._rings import Mailbox, Ring
+from rtcf._runtime._shm import Segment
 N = int(sys.argv[2])
-seg = Segment.attach(sys.argv[1])
+seg = Segment.from_fd(int(sys.argv[1]))
 ctl = seg.buf[:64].cast("q")
 """
 
@@ -110,9 +115,13 @@ def child_env() -> dict[str, str]:
 
 
 def start(code: str, *args: object) -> subprocess.Popen[str]:
+    """Run ``code`` in a child; a Segment among ``args`` is passed as its inherited fd."""
     consts = f"DONE, STARTED, ELAPSED_NS = {DONE}, {STARTED}, {ELAPSED_NS}\n"
+    fds = tuple(a.fd for a in args if isinstance(a, Segment))
+    argv = [str(a.fd) if isinstance(a, Segment) else str(a) for a in args]
     return subprocess.Popen(
-        [sys.executable, "-c", consts + textwrap.dedent(code), *map(str, args)],
+        [sys.executable, "-c", consts + textwrap.dedent(code), *argv],
+        pass_fds=fds,
         stdin=subprocess.PIPE,
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
@@ -134,9 +143,8 @@ def segment(size: int) -> Iterator[Segment]:
     try:
         yield seg
     finally:
-        seg.unlink()
         seg.close()
-    assert seg.name not in leftover_segments(os.getpid())
+    assert rtcf_shm_names() == []
 
 
 @contextmanager
@@ -148,7 +156,7 @@ def child(code: str, *args: object) -> Iterator[subprocess.Popen[str]]:
         if proc.poll() is None:
             proc.kill()
         proc.communicate()
-    assert leftover_segments(proc.pid) == []
+    assert rtcf_shm_names() == []
 
 
 def check_alive(proc: subprocess.Popen[str], t_end: float) -> None:
@@ -205,7 +213,7 @@ def test_ring_between_processes(capacity: int, producer: str) -> None:
         ring = Ring.create(seg.buf[64:], capacity, 40)
         try:
             t0 = time.perf_counter()
-            with child(PREAMBLE + producer + CLOSE, seg.name, N) as proc:
+            with child(PREAMBLE + producer + CLOSE, seg, N) as proc:
                 received, torn = consume(ring, ctl, proc)
                 elapsed = time.perf_counter() - t0
                 finish(proc)
@@ -245,7 +253,7 @@ def test_mailbox_between_processes() -> None:
         backwards: list[tuple[int, int]] = []
         last = 0
         try:
-            with child(PREAMBLE + WRITE_MAILBOX + CLOSE, seg.name, N) as proc:
+            with child(PREAMBLE + WRITE_MAILBOX + CLOSE, seg, N) as proc:
                 t_end = time.monotonic() + DEADLINE_S
                 while last != N:
                     n = try_read_into(out)
@@ -285,39 +293,48 @@ def test_mailbox_between_processes() -> None:
     assert version == N
 
 
-SEGMENT_OWNER = """
+SEGMENT_PEER = """
 import sys
-from rtcf._channels import Segment
-seg = Segment.create(10000)
-seg.buf[:5] = b"hello"
-print(seg.name, seg.size, flush=True)
+from rtcf._runtime._shm import Segment
+seg = Segment.from_fd(int(sys.argv[1]), "rtcf-test")
+print(seg.size, seg.buf[:5].tobytes().decode(), flush=True)
 sys.stdin.readline()
-reply = seg.buf[5:10].tobytes()
-seg.unlink()
+seg.buf[5:10] = b"world"
 seg.close()
-print(reply.decode())
+print("done", flush=True)
 """
 
 
-def test_segment_created_by_one_process_attached_by_another() -> None:
-    with child(SEGMENT_OWNER) as proc:
-        name = ""
-        try:
-            assert proc.stdout is not None and proc.stdin is not None
-            name, size = proc.stdout.readline().split()
-            assert name in leftover_segments(proc.pid)
-            with Segment.attach(name) as seg:
-                assert seg.size == int(size) == 12288
-                assert seg.buf[:5] == b"hello"
-                seg.buf[5:10] = b"world"
-            assert finish(proc, "go\n") == "world\n"
-            assert name not in leftover_segments(proc.pid)
-            assert not os.path.exists(os.path.join("/dev/shm", name))
-            with pytest.raises(FileNotFoundError):
-                Segment.attach(name)
-        finally:
-            if name:  # the child failed half way: remove what it left
-                try:
-                    os.unlink(os.path.join("/dev/shm", name))
-                except FileNotFoundError:
-                    pass
+def test_segment_created_by_one_process_mapped_by_another() -> None:
+    with segment(10000) as seg:
+        seg.buf[:5] = b"hello"
+        assert os.readlink(f"/proc/self/fd/{seg.fd}").startswith("/memfd:rtcf")
+        with child(SEGMENT_PEER, seg) as proc:
+            assert proc.stdout is not None
+            assert proc.stdout.readline().split() == ["12288", "hello"]
+            assert finish(proc, "go\n") == "done\n"
+        assert seg.buf[5:10] == b"world"
+        assert rtcf_shm_names() == []
+
+
+SEGMENT_CREATOR = """
+import os, sys
+from rtcf._runtime._shm import Segment
+segs = [Segment.create(3 << 20, "rtcf-test") for _ in range(4)]
+print(os.getpid(), flush=True)
+sys.stdin.readline()
+"""
+
+
+def test_a_creator_killed_with_sigkill_leaves_nothing_behind() -> None:
+    with child(SEGMENT_CREATOR) as proc:
+        assert proc.stdout is not None
+        pid = int(proc.stdout.readline())
+        maps = Path(f"/proc/{pid}/maps").read_text()
+        assert maps.count("/memfd:rtcf-test (deleted)") == 4  # mapped, and never had a name
+        assert "/dev/shm/" not in maps
+        links = [os.readlink(f) for f in Path(f"/proc/{pid}/fd").iterdir()]
+        assert sum(link.startswith("/memfd:rtcf-test") for link in links) >= 4
+        proc.kill()
+        proc.wait()
+    assert rtcf_shm_names() == []

@@ -332,11 +332,18 @@ def test_parameters_reach_the_component(tmp_path):
 
 
 def test_logging_levels_filter_in_the_component(tmp_path):
+    # logging.launch without its ROSCONSOLE_CONFIG_FILE, which would set the level
+    # (test_rosconsole_config.py)
+    path = tmp_path / "logging.launch"
+    path.write_text(
+        (SRC / "rtcf_examples" / "launch" / "logging.launch").read_text().replace(
+            '<env name="ROSCONSOLE_CONFIG_FILE"', '<!-- env name="ROSCONSOLE_CONFIG_FILE"'
+        ).replace('rosconsole_settings.conf"/>', 'rosconsole_settings.conf" -->')
+    )
+    assert "<env" not in path.read_text()
+
     def run_at(level):
-        return run_rtcf(
-            "launch", "rtcf_examples", "logging.launch", "--sim", "--duration", "2",
-            "--log-level", level,
-        )  # fmt: skip
+        return run_rtcf("launch", path, "--sim", "--duration", "2", "--log-level", level)
 
     quiet, loud = run_at("error"), run_at("debug")
     assert "Test RT debug at iteration 1" in loud.stderr

@@ -26,9 +26,9 @@ pytestmark = pytest.mark.integration
 CHILD = r"""
 import json, os, pwd, sys
 
-import rtcf._report  # everything is imported before privileges are dropped
-from rtcf._realtime import apply_realtime, describe_failures
-from rtcf._settings import RunnerSettings
+import rtcf._cli._report  # everything is imported before privileges are dropped
+from rtcf._runtime._realtime import apply_realtime, describe_failures
+from rtcf._core._settings import RunnerSettings
 
 
 def stack_kB():

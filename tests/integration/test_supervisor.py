@@ -6,9 +6,10 @@ import pytest
 
 import rtcf_examples
 from rtcf import ComponentError, ComponentSpec, RtcfError, RunnerSettings
-from rtcf._channels import leftover_segments
-from rtcf._log import LogRecord
-from rtcf._supervisor import WorkerDied, WorkerRunner
+from rtcf._core._log import LogRecord
+from rtcf._runtime._supervisor import WorkerDied, WorkerRunner
+
+from .._proc import rtcf_shm_names
 
 pytestmark = pytest.mark.integration
 
@@ -40,7 +41,7 @@ def test_load_run_unload_and_run_again_in_one_worker() -> None:
     rt = [r for r in sink.records if r[1] == "/log" and r[2].startswith("Test RT")]
     # Logging logs info/warning/error/fatal once per iteration, from the worker
     assert [r[3] for r in rt] == [0] * 4 + [1] * 4 + [2] * 4
-    assert leftover_segments(os.getpid()) == []
+    assert rtcf_shm_names() == []
 
 
 def test_a_bad_load_is_refused_and_the_worker_lives_on() -> None:
@@ -64,7 +65,7 @@ def test_a_killed_worker_is_an_error_at_the_next_command() -> None:
             runner.load(ComponentSpec("a", rtcf_examples.BareMinimum))
     finally:
         runner.close()
-    assert leftover_segments(os.getpid()) == []
+    assert rtcf_shm_names() == []
 
 
 def test_a_parameter_set_while_running_applies_between_two_iterations(monkeypatch) -> None:
@@ -111,3 +112,15 @@ def test_a_parameter_set_while_running_applies_between_two_iterations(monkeypatc
     for i in range(first_new):
         assert seen[i] == {"/a": "1.0", "/b": "3.0"}, (i, seen[i])
     assert seen[120]["/a"] == "7.0" and seen[121]["/a"] == "7.0"
+
+
+def test_a_parameter_a_component_sets_reaches_the_supervisors_store(monkeypatch):
+    from .conftest import FIXTURES
+
+    monkeypatch.syspath_prepend(str(FIXTURES))  # the worker imports from the same path
+    settings = RunnerSettings(mode="no_wait", frequency=100.0)
+    with WorkerRunner(settings, name="/rt_runner") as runner:
+        runner.load(ComponentSpec("setter", module="rtcf_test_components",
+                                  class_name="SetsParameters"))
+        assert runner.parameters.get("/setter/calibrated") == 42.5
+        assert runner.parameters.get("/shared/answer") == "yes"

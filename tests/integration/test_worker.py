@@ -1,7 +1,7 @@
 """The loop in its own worker process: isolation, real-time settings, every way it ends.
 
 Each test starts the real command line (a supervisor) which starts a real worker;
-shared-memory segments are looked for in /dev/shm under the supervisor's pid.
+no shared memory may ever have a name in /dev/shm (it is anonymous: memfds).
 """
 
 import json
@@ -16,9 +16,7 @@ import time
 
 import pytest
 
-from rtcf._channels import leftover_segments
-
-from .._proc import read_rest, wait_for, wait_for_match
+from .._proc import read_rest, rtcf_shm_names, wait_for, wait_for_match
 from .conftest import FIXTURES, SRC, run_rtcf
 
 pytestmark = pytest.mark.integration
@@ -170,7 +168,7 @@ def test_nothing_is_left_in_dev_shm_after_a_normal_run(tmp_path):
     proc = start("launch", write_launch(tmp_path, FACTS), "--duration", "0.3")
     _out, err = read_rest(proc, 120)
     assert proc.returncode == 0, err
-    assert leftover_segments(proc.pid) == []
+    assert rtcf_shm_names() == []
 
 
 @pytest.mark.parametrize(
@@ -191,8 +189,8 @@ def test_a_signal_stops_the_loop_runs_the_hooks_and_cleans_up(tmp_path, sig, gro
     worker = int(m.group(1))
     wait_for(proc, "running until Ctrl-C")
     time.sleep(0.3)
-    # while running, the names are already gone from /dev/shm: nothing can leak
-    assert leftover_segments(proc.pid) == []
+    # the run's memory is anonymous: there is no name that could leak
+    assert rtcf_shm_names() == []
     if group:  # what a terminal does: the signal reaches supervisor and worker
         os.killpg(proc.pid, sig)
     else:
@@ -203,7 +201,7 @@ def test_a_signal_stops_the_loop_runs_the_hooks_and_cleans_up(tmp_path, sig, gro
     assert "Explodes stop hook ran" in err and "Explodes cleanup hook ran" in err
     assert " iterations at 200 Hz" in out
     assert wait_gone(worker)
-    assert leftover_segments(proc.pid) == []
+    assert rtcf_shm_names() == []
 
 
 def test_a_worker_killed_with_sigkill_is_reported_and_cleaned_up(tmp_path):
@@ -219,7 +217,7 @@ def test_a_worker_killed_with_sigkill_is_reported_and_cleaned_up(tmp_path):
     assert len(lines) == 1, err
     assert f"worker process (pid {worker}) was killed by SIGKILL" in lines[0]
     assert "stop() and cleanup() did not run" in lines[0]
-    assert leftover_segments(proc.pid) == []
+    assert rtcf_shm_names() == []
 
 
 def test_a_supervisor_killed_with_sigkill_takes_its_worker_along(tmp_path):
@@ -238,7 +236,7 @@ def test_a_supervisor_killed_with_sigkill_takes_its_worker_along(tmp_path):
     read_rest(proc, 30)
     # the worker gets SIGTERM from the kernel (PR_SET_PDEATHSIG), stops and leaves
     assert wait_gone(worker), "the worker outlived its supervisor"
-    assert leftover_segments(proc.pid) == []
+    assert rtcf_shm_names() == []
 
 
 def test_a_raising_component_ends_the_run_with_its_name_and_cleans_up(tmp_path):
@@ -255,7 +253,7 @@ def test_a_raising_component_ends_the_run_with_its_name_and_cleans_up(tmp_path):
     lines = [ln for ln in err.splitlines() if ln.startswith("rtcf: error:")]
     assert len(lines) == 1 and "'/bomb'" in lines[0] and "iteration 5" in lines[0], err
     assert "Explodes cleanup hook ran" in err
-    assert leftover_segments(proc.pid) == []
+    assert rtcf_shm_names() == []
 
 
 def test_non_realtime_logging_in_update_is_an_error(tmp_path):

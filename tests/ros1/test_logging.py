@@ -77,8 +77,12 @@ def test_diagnostics_iteration_info_and_introspection(topics):
         assert wait_until(lambda: len(info) >= 10)
         msgs = info[-10:]
         stamps = [m.stamp.to_nsec() for m in msgs]
-        # one message per iteration: consecutive stamps one period (200 Hz) apart, exactly
-        assert all(b - a == 5_000_000 for a, b in itertools.pairwise(stamps)), stamps
+        # one message per iteration: consecutive stamps one period (200 Hz) apart, give
+        # or take the wake-up jitter, which the stamps carry (each is when its iteration
+        # started, as the original's): they are not exactly on the grid
+        gaps = [b - a for a, b in itertools.pairwise(stamps)]
+        assert all(abs(g - 5_000_000) < 2_500_000 for g in gaps), gaps
+        assert any(g != 5_000_000 for g in gaps), gaps
         assert abs(stamps[-1] * 1e-9 - time.time()) < 10  # ROS time, not CLOCK_MONOTONIC
         assert all(0 < m.duration_ns < 50_000_000 for m in msgs)
         rospy.wait_for_service("/rt_runner/introspect", timeout=10)

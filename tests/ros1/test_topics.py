@@ -174,8 +174,8 @@ def test_plain_kinds_serialize_as_genpy_does():
     """The hand-made ROS 1 bytes of the plain kinds are genpy's, bit for bit."""
     from io import BytesIO
 
-    from rtcf._codec import codec_for
-    from rtcf._ros1 import from_wire, to_wire
+    from rtcf._ros1._bridge import from_wire, to_wire
+    from rtcf._runtime._codec import codec_for
 
     def genpy_bytes(msg):
         buf = BytesIO()
@@ -204,8 +204,8 @@ def test_no_master_is_a_clear_error():
     env = rtcf_env()
     env["ROS_MASTER_URI"] = "http://127.0.0.1:1"  # nothing listens there
     code = (
-        "from rtcf._ros1 import Ros1Bridge\n"
-        "from rtcf._errors import RtcfError\n"
+        "from rtcf._ros1._bridge import Ros1Bridge\n"
+        "from rtcf._core._errors import RtcfError\n"
         "try:\n"
         "    Ros1Bridge('r')\n"
         "except RtcfError as exc:\n"

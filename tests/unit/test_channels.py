@@ -1,26 +1,14 @@
-"""Shared-memory channels in one process: rings, mailboxes, segments."""
+"""Channels in one process: rings and mailboxes, in a bytearray or a Segment."""
 
 from __future__ import annotations
 
-import os
-import re
-import stat
 import struct
 from collections.abc import Iterator
 
 import pytest
 
-from rtcf._channels import (
-    PREFIX,
-    SHM_DIR,
-    Mailbox,
-    Ring,
-    Segment,
-    leftover_segments,
-    shm_dir,
-)
-
-NAME = re.compile(r"rtcf-(\d+)-([0-9a-f]{32})")
+from rtcf._core._rings import Mailbox, Ring
+from rtcf._runtime._shm import Segment
 
 
 def _ring(capacity: int, record_size: int = 8) -> Ring:
@@ -37,7 +25,6 @@ def segment() -> Iterator[Segment]:
     try:
         yield seg
     finally:
-        seg.unlink()
         seg.close()
 
 
@@ -278,47 +265,7 @@ def test_mailbox_reader_never_waits_for_the_writer() -> None:
     assert box.read() == _rec(3)
 
 
-# -- Segment -----------------------------------------------------------------
-
-
-def test_segment_file_mode_0600_whatever_the_umask() -> None:
-    old = os.umask(0)
-    try:
-        seg = Segment.create(100)
-    finally:
-        os.umask(old)
-    try:
-        path = os.path.join(SHM_DIR, seg.name)
-        st = os.stat(path)
-        assert stat.S_ISREG(st.st_mode)
-        assert st.st_mode & 0o777 == 0o600
-        assert seg.size == st.st_size == os.sysconf("SC_PAGE_SIZE")
-        assert seg.buf.nbytes == seg.size
-        assert seg.buf.tobytes() == bytes(seg.size)
-        match = NAME.fullmatch(seg.name)
-        assert match and int(match[1]) == os.getpid() and len(match[2]) == 32
-    finally:
-        seg.unlink()
-        seg.close()
-
-
-def test_segment_names_differ() -> None:
-    with Segment.create(1) as a, Segment.create(1) as b:
-        try:
-            assert a.name != b.name
-            assert a.name.startswith(PREFIX) and shm_dir() == SHM_DIR
-        finally:
-            a.unlink()
-            b.unlink()
-
-
-def test_attach_sees_the_creators_writes(segment: Segment) -> None:
-    with Segment.attach(segment.name) as other:
-        assert other.size == segment.size
-        segment.buf[10:15] = b"hello"
-        assert other.buf[10:15] == b"hello"
-        other.buf[0] = 42
-        assert segment.buf[0] == 42
+# -- in a Segment ------------------------------------------------------------
 
 
 def test_channels_in_a_segment_close_cleanly(segment: Segment) -> None:
@@ -336,59 +283,6 @@ def test_channels_in_a_segment_close_cleanly(segment: Segment) -> None:
     assert segment.closed
 
 
-def test_unlink_removes_the_file_and_the_mapping_still_works() -> None:
-    seg = Segment.create(8192)
-    try:
-        path = os.path.join(SHM_DIR, seg.name)
-        assert os.path.exists(path)
-        seg.unlink()
-        assert not os.path.exists(path)
-        seg.unlink()  # idempotent
-        seg.buf[8191] = 7
-        assert seg.buf[8191] == 7
-        with pytest.raises(FileNotFoundError, match="no shared-memory segment"):
-            Segment.attach(seg.name)
-    finally:
-        seg.unlink()
-        seg.close()
-    seg.close()
-    assert seg.closed
-
-
-def test_leftover_segments_finds_then_forgets() -> None:
-    pid = os.getpid()
-    seg = Segment.create(10)
-    try:
-        assert seg.name in leftover_segments(pid)
-        assert seg.name in leftover_segments()
-        assert seg.name not in leftover_segments(pid + 1)
-    finally:
-        seg.unlink()
-        seg.close()
-    assert seg.name not in leftover_segments(pid)
-
-
-@pytest.mark.parametrize(
-    "name",
-    [
-        "/rtcf-1-" + "0" * 32,
-        "rtcf-1-" + "0" * 31,
-        "rtcf-x-" + "0" * 32,
-        "rtcf-1-" + "G" * 32,
-        "../etc/passwd",
-        "",
-    ],
-)
-def test_attach_bad_name_raises_clearly(name: str) -> None:
-    with pytest.raises(ValueError, match="is not an rtcf shared-memory segment name"):
-        Segment.attach(name)
-
-
-def test_segment_size_must_be_positive() -> None:
-    with pytest.raises(ValueError, match="must be positive"):
-        Segment.create(0)
-
-
 def test_refused_open_leaves_no_view_behind(segment: Segment) -> None:
     with pytest.raises(ValueError, match="does not hold an rtcf ring"):
         Ring.open(segment.buf)
@@ -401,7 +295,7 @@ def test_refused_open_leaves_no_view_behind(segment: Segment) -> None:
 
 
 def test_mailbox_reader_never_goes_back_to_an_older_value() -> None:
-    from rtcf._channels import _M_LATEST
+    from rtcf._core._rings import _M_LATEST
 
     buf = bytearray(Mailbox.nbytes(8))
     box = Mailbox.create(buf, 8)

@@ -2,14 +2,15 @@
 
 from __future__ import annotations
 
+import weakref
 from collections.abc import Callable
 
 import pytest
 
 from rtcf import MonotonicClock, SimClock
-from rtcf._executor import Executor, StopFlag, UpdateFailure
-from rtcf._loop_state import LoopState
-from rtcf._timing import (
+from rtcf._core._executor import Executor, StopFlag, UpdateFailure
+from rtcf._core._loop_state import LoopState
+from rtcf._core._timing import (
     COL_CALC,
     COL_ITERATION,
     COL_JITTER,
@@ -55,13 +56,14 @@ def _writer(ex: Executor) -> TimingWriter:
     return ex.timing
 
 
-_SEEN: dict[int, list[list[int]]] = {}
+# by the writer itself, not id(): a later test's writer may get a freed one's id
+_SEEN: weakref.WeakKeyDictionary[TimingWriter, list[list[int]]] = weakref.WeakKeyDictionary()
 
 
 def _rows(ex: Executor) -> list[list[int]]:
     """Every row the executor committed so far (drained from its ring and kept)."""
     timing = _writer(ex)
-    kept = _SEEN.setdefault(id(timing), [])
+    kept = _SEEN.setdefault(timing, [])
     ring = timing.ring
     while (row := ring.pop()) is not None:
         words = memoryview(row).cast("q")

@@ -7,8 +7,9 @@ from typing import Any
 import pytest
 
 from rtcf import LaunchError, ParameterStore, Runner, SimClock
-from rtcf._deployment import Deployment, is_launcher, is_runner, plan
-from rtcf._launch_description import LaunchDescription, Location, NodeDescription
+from rtcf._core._errors import Location
+from rtcf._launch._deployment import Deployment, is_launcher, is_runner, plan
+from rtcf._launch._description import LaunchDescription, NodeDescription
 
 FILE = "test.launch"
 

@@ -3,7 +3,7 @@ import subprocess
 import sys
 import time
 
-from rtcf._doorbell import Doorbell
+from rtcf._runtime._doorbell import Doorbell
 
 
 def test_wait_times_out_when_nobody_rings():
@@ -41,7 +41,7 @@ def test_another_process_rings_the_inherited_descriptor():
     bell = Doorbell.create()
     try:
         code = (
-            "import sys, time; from rtcf._doorbell import Doorbell; "
+            "import sys, time; from rtcf._runtime._doorbell import Doorbell; "
             "time.sleep(0.2); Doorbell(int(sys.argv[1])).ring()"
         )
         child = subprocess.Popen(

@@ -5,7 +5,17 @@ from __future__ import annotations
 import types
 
 import rtcf
-from rtcf import _clock, _component, _errors, _graph, _log, _params, _ports, _runner, _settings
+from rtcf._core import (
+    _clock,
+    _component,
+    _errors,
+    _graph,
+    _log,
+    _params,
+    _ports,
+    _runner,
+    _settings,
+)
 
 EXPECTED = {
     "Clock": _clock.Clock,
@@ -69,3 +79,13 @@ def test_error_str_has_file_and_line() -> None:
     assert str(rtcf.RtcfError("bad")) == "bad"
     err = rtcf.ComponentError("x", component="/c")
     assert (err.component, err.message, err.file, err.line) == ("/c", "x", None, None)
+
+
+def test_testing_module_exports_exactly_these() -> None:
+    import rtcf.testing
+
+    assert sorted(rtcf.testing.__all__) == [
+        "InputValues", "SimClock", "Trace", "run_components", "run_launch"
+    ]
+    public = {n for n in vars(rtcf.testing) if not n.startswith("_")}
+    assert set(rtcf.testing.__all__) <= public

@@ -7,7 +7,7 @@ import re
 import pytest
 
 from rtcf import GraphError
-from rtcf._graph import (
+from rtcf._core._graph import (
     GraphNode,
     PortInfo,
     build_graph,

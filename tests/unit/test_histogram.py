@@ -9,7 +9,7 @@ import numpy as np
 import numpy.typing as npt
 import pytest
 
-from rtcf._histogram import (
+from rtcf._core._histogram import (
     LIMIT_NS,
     LOWER_EDGES,
     N_BUCKETS,

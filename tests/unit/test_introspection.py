@@ -5,7 +5,7 @@ from __future__ import annotations
 import pytest
 
 from rtcf import Component, ComponentSpec, RtcfError, Runner, RunnerSettings, SimClock
-from rtcf._introspection import render
+from rtcf._cli._introspection import render
 
 
 class Source(Component):
@@ -80,7 +80,7 @@ def test_a_cycle_is_reported_not_an_order() -> None:
 
 
 def test_mapping_names_what_is_published_and_subscribed() -> None:
-    from rtcf._introspection import mapping
+    from rtcf._cli._introspection import mapping
 
     class Reader(Component):
         def configure(self) -> None:
@@ -97,7 +97,7 @@ def test_mapping_names_what_is_published_and_subscribed() -> None:
 
 
 def test_mapping_says_why_nothing_is_mapped() -> None:
-    from rtcf._introspection import mapping
+    from rtcf._cli._introspection import mapping
 
     empty = Runner(RunnerSettings(), clock=SimClock())
     empty.load(ComponentSpec("sink", Sink, namespace="/ns"))

@@ -9,9 +9,9 @@ from pathlib import Path
 import pytest
 import yaml
 
-from rtcf._errors import LaunchError
-from rtcf._launch_description import LaunchDescription, Location, NodeDescription
-from rtcf._launch_xml import parse_launch_file, parse_launch_string
+from rtcf._core._errors import LaunchError, Location
+from rtcf._launch._description import LaunchDescription, NodeDescription
+from rtcf._launch._xml import parse_launch_file, parse_launch_string
 
 PAPER = """\
 <launch>

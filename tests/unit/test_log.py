@@ -7,8 +7,7 @@ import logging
 import pytest
 
 from rtcf import LogLevel, RtcfError
-from rtcf._channels import Ring
-from rtcf._log import (
+from rtcf._core._log import (
     LOG_RECORD_SIZE,
     ComponentLogger,
     LogRecord,
@@ -18,7 +17,8 @@ from rtcf._log import (
     drain_channel,
     python_logger_name,
 )
-from rtcf._loop_state import LoopState
+from rtcf._core._loop_state import LoopState
+from rtcf._core._rings import Ring
 
 
 def _collect(ring: LogRing, limit: int | None = None) -> list[tuple]:

@@ -8,9 +8,9 @@ from array import array
 
 import pytest
 
-from rtcf._channels import Mailbox
-from rtcf._clock import MiddlewareClock
-from rtcf._doorbell import Doorbell, RungMailbox
+from rtcf._core._clock import MiddlewareClock
+from rtcf._core._rings import Mailbox
+from rtcf._runtime._doorbell import Doorbell, RungMailbox
 
 
 @pytest.fixture

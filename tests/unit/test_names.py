@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import pytest
 
-from rtcf._names import (
+from rtcf._core._names import (
     Resolver,
     basename,
     expand,

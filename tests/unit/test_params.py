@@ -5,8 +5,8 @@ from __future__ import annotations
 import pytest
 
 from rtcf import ConfigurationError, ParameterStore
-from rtcf._names import Resolver
-from rtcf._params import Params
+from rtcf._core._names import Resolver
+from rtcf._core._params import Params
 
 
 def test_set_and_get_leaf() -> None:

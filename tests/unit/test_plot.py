@@ -11,9 +11,9 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from rtcf._errors import RtcfError
-from rtcf._histogram import LogHistogram
-from rtcf._plot import MAX_DISPLAY_BINS, display_bins, format_us, plot_timing
+from rtcf._cli._plot import MAX_DISPLAY_BINS, display_bins, format_us, plot_timing
+from rtcf._core._errors import RtcfError
+from rtcf._core._histogram import LogHistogram
 
 PNG_SIGNATURE = b"\x89PNG\r\n\x1a\n"
 SRC = Path(__file__).resolve().parents[2] / "src"
@@ -76,7 +76,7 @@ def test_missing_matplotlib_is_an_rtcf_error(
 
 
 def test_importing_the_modules_does_not_import_matplotlib() -> None:
-    code = "import sys, rtcf._plot, rtcf._histogram; print('matplotlib' in sys.modules)"
+    code = "import sys, rtcf._cli._plot, rtcf._core._histogram; print('matplotlib' in sys.modules)"
     env = {**os.environ, "PYTHONPATH": str(SRC)}
     done = subprocess.run(
         [sys.executable, "-c", code],

@@ -2,17 +2,17 @@
 
 import pytest
 
-from rtcf._channels import Mailbox, Ring
-from rtcf._codec import codec_for
-from rtcf._doorbell import Doorbell
-from rtcf._port_channels import (
+from rtcf._core._ports import InputPort, OutputPort
+from rtcf._core._rings import Mailbox, Ring
+from rtcf._runtime._codec import codec_for
+from rtcf._runtime._doorbell import Doorbell
+from rtcf._runtime._port_channels import (
     OUTPUT_RING_RECORDS,
     WorkerPorts,
     mapped_ports,
     read_record,
     segment_size,
 )
-from rtcf._ports import InputPort, OutputPort
 
 
 def _ports():

@@ -15,7 +15,7 @@ from pathlib import Path
 
 import pytest
 
-from rtcf._realtime import (
+from rtcf._runtime._realtime import (
     SIMULATED,
     Applied,
     FrozenGC,

@@ -19,8 +19,8 @@ from rtcf import (
     RunnerSettings,
     SimClock,
 )
-from rtcf._launch_description import Location
-from rtcf._log import LogRecord
+from rtcf._core._errors import Location
+from rtcf._core._log import LogRecord
 
 # -- helpers -------------------------------------------------------------------------
 

@@ -7,8 +7,8 @@ from array import array
 
 import pytest
 
-from rtcf._channels import Ring
-from rtcf._timing import (
+from rtcf._core._rings import Ring
+from rtcf._core._timing import (
     FIXED_COLUMNS,
     TimingAggregate,
     local_ring,

@@ -15,8 +15,8 @@ from rtcf import (
     RunnerSettings,
     SimClock,
 )
-from rtcf._channels import Ring
-from rtcf._tunables import (
+from rtcf._core._rings import Ring
+from rtcf._core._tunables import (
     LOG_LEVEL,
     PARAMETER,
     UPDATE_RECORD_SIZE,

@@ -1,0 +1,57 @@
+"""For colcon and other setup.py-based tools: the metadata are in pyproject.toml.
+
+colcon builds ament_python packages by running setup.py; pip does not need this file.
+The console scripts go to <prefix>/bin, and pyproject.toml's data-files put the ament
+index marker, share/rtcf/package.xml and the wrappers lib/rtcf/rt_runner and
+lib/rtcf/rt_launcher (which run them) into the prefix, for pip and colcon alike
+(docs/ros2.md, "Installing").
+"""
+
+from pathlib import Path
+from typing import Any
+
+from setuptools import setup
+from setuptools.dist import Distribution
+
+
+def _link_project_files() -> None:
+    """Give `colcon build --symlink-install` the files that setuptools reads.
+
+    colcon links only setup.py, setup.cfg, the packages and the data files into its
+    build directory and runs `setup.py develop` there: without pyproject.toml beside
+    it, setuptools would build a package named UNKNOWN. Link the project's other
+    top-level files (pyproject.toml, README.md, ...) beside them.
+    """
+    script = Path(__file__)
+    if not script.is_symlink() or script.absolute().parent != Path.cwd():
+        return  # pip, or colcon without --symlink-install: run in the source
+    source = script.resolve().parent
+    for item in source.iterdir():
+        link = Path.cwd() / item.name
+        if item.is_file() and not item.name.startswith(".") and not link.is_symlink():
+            if not link.exists():
+                link.symlink_to(item)
+
+
+class _Distribution(Distribution):
+    def parse_config_files(self, *args: Any, **kwargs: Any) -> None:
+        super().parse_config_files(*args, **kwargs)
+        # pyproject.toml's requires-python arrives as a packaging SpecifierSet, which
+        # colcon cannot read back (colcon-python-setup-py evaluates the repr of the
+        # configuration with ast.literal_eval, and fails on "<SpecifierSet(...)>"):
+        # keep it the string that a setup.py would give.
+        if getattr(self, "python_requires", None) is not None:
+            self.python_requires = str(self.python_requires)
+            self.metadata.python_requires = self.python_requires
+
+    def has_data(self) -> bool:
+        # `pip install -e` (setuptools' editable_wheel) installs the data files only
+        # when the distribution answers has_data(), which setuptools' Distribution
+        # lacks (it has has_data_files(); seen up to setuptools 84.2): without this,
+        # an editable install would register nothing in the ament index and put
+        # nothing into lib/rtcf/.
+        return self.has_data_files()
+
+
+_link_project_files()
+setup(distclass=_Distribution)

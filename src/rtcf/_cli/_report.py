@@ -1,0 +1,152 @@
+"""What a run prints and writes: the order, the timing summary, timing.json."""
+
+from __future__ import annotations
+
+import json
+import os
+import platform
+from pathlib import Path
+from typing import Any
+
+from .._core._runner import RunResult
+from .._core._settings import RunnerSettings
+from .._runtime._realtime import kernel_preemption
+
+_COLUMNS = ("min", "p50", "p99", "p999", "max")
+
+
+def format_summary(result: RunResult, settings: RunnerSettings, wall_s: float) -> str:
+    """A few lines that say what ran and how its timing looked."""
+    t = result.timing
+    clock = "simulated clock" if result.simulated else "system clock"
+    lines = [
+        f"ran {result.iterations} iterations at {settings.frequency:g} Hz on the {clock} "
+        f"in {wall_s:.3f} s of wall time; overruns: {t.overruns}; "
+        f"log records dropped: {result.log_records_dropped}"
+    ]
+    if result.simulated:
+        rate = result.iterations / wall_s if wall_s > 0 else float("inf")
+        lines.append(
+            f"  simulated time: {result.iterations / settings.frequency:.3f} s "
+            f"({rate:,.0f} iterations per second of wall time); timing is not measured"
+        )
+        return "\n".join(lines)
+    if not t.calc_us:
+        return "\n".join(lines)
+    labels = ("min", "p50", "p99", "p99.9", "max")
+    lines.append("  {:<28}".format("timing [µs]") + "".join(f"{c:>10}" for c in labels))
+
+    def row(label: str, stats: dict[str, float]) -> str:
+        return f"  {label:<28}" + "".join(f"{stats.get(c, float('nan')):>10.1f}" for c in _COLUMNS)
+
+    lines.append(row("wake-up jitter", t.jitter_us))
+    lines.append(row("calculation (iteration)", t.calc_us))
+    for name, stats in t.components_us.items():
+        lines.append(row(f"  {name}", stats))
+    note = t.coverage_note()
+    if note:
+        lines.append(f"  ({note})")
+    return "\n".join(lines)
+
+
+def timing_document(result: RunResult, settings: RunnerSettings, wall_s: float) -> dict[str, Any]:
+    """timing.json: what ran, what the worker applied, the quantiles and the histograms."""
+    t = result.timing
+    keep = ("min", "p50", "p90", "p99", "p999", "max", "mean")
+    realtime = dict(result.realtime or {})
+    realtime.setdefault("kernel_preemption", kernel_preemption())
+    doc: dict[str, Any] = {
+        "frequency_hz": settings.frequency,
+        "iterations": result.iterations,
+        "overruns": t.overruns,
+        "duration_s": result.iterations / settings.frequency,
+        "wall_time_s": wall_s,
+        "simulated": result.simulated,
+        "order": result.order,
+        "realtime": realtime,
+        "jitter_us": {k: t.jitter_us.get(k) for k in keep} if t.jitter_us else {},
+        "calc_us": {k: t.calc_us.get(k) for k in keep} if t.calc_us else {},
+        "components": {
+            name: {"calc_us": {k: stats.get(k) for k in keep}}
+            for name, stats in t.components_us.items()
+        },
+        "samples": t.samples,
+        "timing_rows_dropped": t.iterations - t.samples if not result.simulated else 0,
+        "log_records_dropped": result.log_records_dropped,
+        "stopped_by": result.stopped_by,
+        "faults": [f.to_dict() for f in result.faults],
+        "safe_stops": [vars(o) for o in result.safe_stops],
+        "machine": machine(),
+    }
+    if result.aggregate is not None and not result.simulated:
+        doc["histograms_ns"] = result.aggregate.histograms()
+    return doc
+
+
+def machine() -> dict[str, Any]:
+    """Where the numbers were measured."""
+    model = ""
+    try:
+        for line in Path("/proc/cpuinfo").read_text().splitlines():
+            if line.startswith("model name"):
+                model = line.split(":", 1)[1].strip()
+                break
+    except OSError:
+        pass
+    return {
+        "cores": os.cpu_count(),
+        "cpu": model,
+        "kernel": platform.release(),
+        "kernel_version": platform.version(),
+        "python": platform.python_version(),
+        "load_1min": os.getloadavg()[0] if hasattr(os, "getloadavg") else None,
+    }
+
+
+def can_plot() -> bool:
+    """Whether matplotlib can be imported (timing.png needs it; timing.json does not)."""
+    import importlib.util
+
+    try:
+        return importlib.util.find_spec("matplotlib") is not None
+    except (ImportError, ValueError):
+        return False
+
+
+def write_report(
+    directory: str | os.PathLike[str], result: RunResult, settings: RunnerSettings, wall_s: float
+) -> list[Path]:
+    """Write timing.json and, unless the clock was simulated, timing.png into ``directory``."""
+    out = Path(directory)
+    out.mkdir(parents=True, exist_ok=True)
+    doc = timing_document(result, settings, wall_s)
+    path = out / "timing.json"
+    path.write_text(json.dumps(doc, indent=2) + "\n")
+    written = [path]
+    if result.aggregate is not None and not result.simulated and can_plot():
+        from ._plot import plot_timing  # matplotlib only when a plot is asked for
+
+        m = doc["machine"]
+        rt = doc["realtime"]
+        sched = rt.get("scheduler", "?")
+        if rt.get("priority"):
+            sched += f" {rt['priority']}"
+        written.append(
+            plot_timing(
+                out / "timing.png",
+                result.aggregate.calc,
+                result.aggregate.jitter,
+                title=(
+                    f"{len(result.order)} components at {settings.frequency:g} Hz, "
+                    f"{result.iterations} iterations "
+                    f"({result.iterations / settings.frequency:.0f} s)"
+                ),
+                subtitle=(
+                    f"{m['cores']} cores {m['cpu']}, Linux {m['kernel']} "
+                    f"({rt.get('kernel_preemption')}), {sched}, "
+                    f"mlockall {'on' if rt.get('mlockall') else 'off'}, "
+                    f"load {m['load_1min']:.2f}"
+                ),
+            )
+        )
+    return written

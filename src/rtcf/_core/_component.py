@@ -1,0 +1,245 @@
+"""The component: the smallest reusable unit, with a lifecycle and typed ports.
+
+Write one by subclassing :class:`Component` and overriding the hooks you need::
+
+    class Gain(rtcf.Component):
+        def configure(self):
+            self.inp = self.add_input("in", float)
+            self.out = self.add_output("out", float)
+            self.k = self.params.get("~gain", 2.0)
+
+        def update(self):
+            x = self.inp.read()
+            if x is not None:
+                self.out.write(self.k * x)
+
+Hooks (all optional): ``configure`` (add ports, read parameters), ``start`` (just
+before the loop first runs it), ``update`` (once per iteration, real-time),
+``stop`` and ``cleanup``. A hook that returns False or raises has failed.
+A component whose ``update`` is not overridden costs nothing in the loop.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Any, TypeVar
+
+from ._errors import ComponentError
+from ._log import ComponentLogger, LogRing, RecordSink
+from ._loop_state import LoopState
+from ._names import Resolver, join, validate_name
+from ._params import ParameterStore, Params
+from ._ports import InputPort, OutputPort
+
+T = TypeVar("T")
+
+
+class Component:
+    """Base class of real-time components (the original's ``RTT::TaskContext``)."""
+
+    name: str
+    namespace: str
+    params: Params
+    log: ComponentLogger
+    # the runner's wiring, kept apart from user attributes by the prefix
+    _rtcf_state: LoopState
+    _rtcf_resolver: Resolver
+    _rtcf_inputs: dict[str, InputPort[Any]]
+    _rtcf_outputs: dict[str, OutputPort[Any]]
+    _rtcf_configured: bool
+    # while configure runs again (lifecycle): the port names declared so far
+    _rtcf_redeclared: set[str] | None = None
+
+    def __init__(self) -> None:
+        # Constructed by a runner, the context is attached before __init__ runs; a
+        # component constructed directly (in a unit test) gets a context of its own.
+        if not hasattr(self, "_rtcf_state"):
+            _attach(
+                self,
+                name=type(self).__name__,
+                namespace="/",
+                resolver=Resolver("/", type(self).__name__),
+                store=ParameterStore(),
+                ring=LogRing(256),
+                state=LoopState(),
+            )
+
+    # -- hooks --------------------------------------------------------------
+    def configure(self) -> bool | None:
+        """Add ports and read parameters. Runs when the component is loaded, and again
+        on a lifecycle ``configure`` after ``cleanup`` (same ports, same tunables)."""
+        return None
+
+    def start(self) -> bool | None:
+        """Prepare to run; called before the first ``update`` after loading."""
+        return None
+
+    def update(self) -> None:
+        """One iteration of work. Real-time: no blocking calls, no I/O."""
+
+    def stop(self) -> None:
+        """The loop will no longer call ``update`` (the component is unloaded or the
+        runner stops)."""
+
+    def cleanup(self) -> None:
+        """Release what ``configure`` acquired."""
+
+    def safe_stop(self) -> bool | None:
+        """Bring what this component drives to a safe state (zero torque, hold position).
+
+        Runs in the worker whenever the loop ends for any reason other than a normal
+        stop: a component raised, a watchdog fired, the supervisor died or was
+        stopped with a signal, the worker got SIGTERM or SIGINT; and when a fault
+        policy takes this component out of the schedule. Active components run it
+        last in the execution order first, each on its own (one that raises does
+        not keep the others from running); ``stop`` and ``cleanup`` follow as usual.
+        Keep it short and self-contained: it may run after another component failed.
+        """
+        return None
+
+    # -- ports ----------------------------------------------------------------
+    def add_input(self, name: str, type_: type[T]) -> InputPort[T]:
+        """Declare an input port (in ``configure``); its topic is ``name`` resolved."""
+        port: InputPort[T] = InputPort(self.full_name, name, type_)
+        return self._rtcf_add_port(port, self._rtcf_inputs)
+
+    def add_output(self, name: str, type_: type[T]) -> OutputPort[T]:
+        """Declare an output port (in ``configure``); its topic is ``name`` resolved."""
+        port: OutputPort[T] = OutputPort(self.full_name, name, type_, self._rtcf_state)
+        return self._rtcf_add_port(port, self._rtcf_outputs)
+
+    def _rtcf_add_port(self, port: Any, table: dict[str, Any]) -> Any:
+        if self._rtcf_redeclared is not None:
+            return self._rtcf_redeclare(port, table)
+        what = f"component {self.full_name!r}: port name"
+        if self._rtcf_configured:
+            raise ComponentError(
+                f"component {self.full_name!r}: add_input/add_output called after configure(); "
+                "declare ports in configure()",
+                component=self.full_name,
+            )
+        if not isinstance(port.type, type):
+            raise ComponentError(
+                f"component {self.full_name!r}: port {port.name!r} has type {port.type!r}, "
+                "which is not a class; pass a class such as float or a message type",
+                component=self.full_name,
+            )
+        problem = validate_name(port.name, what=what)
+        if problem:
+            raise ComponentError(problem, component=self.full_name)
+        if port.name in self._rtcf_inputs or port.name in self._rtcf_outputs:
+            raise ComponentError(
+                f"component {self.full_name!r}: port {port.name!r} is declared twice; "
+                "give each port a unique name",
+                component=self.full_name,
+            )
+        port.topic = self._rtcf_resolver.resolve(port.name)
+        table[port.name] = port
+        return port
+
+    def _rtcf_redeclare(self, port: Any, table: dict[str, Any]) -> Any:
+        """configure() again: the port of the first configure, if it is the same one."""
+        old = table.get(port.name)
+        redeclared = self._rtcf_redeclared
+        assert redeclared is not None
+        if old is None or old.type is not port.type or port.name in redeclared:
+            kind = "input" if table is self._rtcf_inputs else "output"
+            raise ComponentError(
+                f"component {self.full_name!r}: configure() declared the {kind} port "
+                f"{port.name!r} ({getattr(port.type, '__name__', port.type)}), which its first "
+                "configure() did not declare like this; configured again, a component must "
+                "declare the same ports (its connections were made for them): unload and load "
+                "it to change its ports",
+                component=self.full_name,
+            )
+        redeclared.add(port.name)
+        return old
+
+    @property
+    def inputs(self) -> dict[str, InputPort[Any]]:
+        """The input ports by name (a copy)."""
+        return dict(self._rtcf_inputs)
+
+    @property
+    def outputs(self) -> dict[str, OutputPort[Any]]:
+        """The output ports by name (a copy)."""
+        return dict(self._rtcf_outputs)
+
+    # -- loop information (the original's getTime/getIteration/getFrequency) --
+    @property
+    def full_name(self) -> str:
+        return join(self.namespace, self.name)
+
+    @property
+    def iteration(self) -> int:
+        """Index of the current iteration, from 0 (-1 before the loop first ran)."""
+        return self._rtcf_state.iteration
+
+    @property
+    def time(self) -> float:
+        """Scheduled start of the current iteration in seconds since the loop started."""
+        return self._rtcf_state.time_ns * 1e-9
+
+    @property
+    def time_ns(self) -> int:
+        return self._rtcf_state.time_ns
+
+    @property
+    def stamp_ns(self) -> int:
+        """ROS time of this iteration's scheduled start, in ns since the epoch: wall
+        time, or /clock time under ``use_sim_time`` (the original's ``getTime()``); for
+        message headers. Under ``--sim`` it counts from 0, like ``time``."""
+        return self._rtcf_state.stamp_ns
+
+    def stamp_to(self, stamp: Any) -> Any:
+        """Write this iteration's ROS time into a header stamp and return it: ROS 2's
+        ``builtin_interfaces/Time`` (``sec``, ``nanosec``) or ROS 1's ``genpy.Time``
+        (``secs``, ``nsecs``), e.g. ``self.stamp_to(msg.header.stamp)``."""
+        sec, nsec = divmod(self._rtcf_state.stamp_ns, 1_000_000_000)
+        if hasattr(stamp, "nanosec"):
+            stamp.sec, stamp.nanosec = sec, nsec
+        else:
+            stamp.secs, stamp.nsecs = sec, nsec
+        return stamp
+
+    @property
+    def frequency(self) -> float:
+        """The loop's frequency in Hz."""
+        return self._rtcf_state.frequency
+
+    @property
+    def period(self) -> float:
+        """The loop's period in seconds."""
+        return self._rtcf_state.period_ns * 1e-9
+
+    def __repr__(self) -> str:
+        return f"<{type(self).__name__} {self.full_name}>"
+
+
+def _attach(
+    component: Component,
+    *,
+    name: str,
+    namespace: str,
+    resolver: Resolver,
+    store: ParameterStore,
+    ring: RecordSink,
+    state: LoopState,
+    emit: Callable[[int, str, str, int, int], None] | None = None,
+) -> None:
+    """Give ``component`` its identity and its access to the runner (before __init__)."""
+    component.name = name
+    component.namespace = namespace
+    full = join(namespace, name)
+    component.params = Params(store, resolver, full, lambda: state.running)
+    component.log = ComponentLogger(full, ring, state, emit=emit)
+    component._rtcf_state = state
+    component._rtcf_resolver = resolver
+    component._rtcf_inputs = {}
+    component._rtcf_outputs = {}
+    component._rtcf_configured = False
+
+
+def overrides(component: Component, hook: str) -> bool:
+    """Whether ``component``'s class overrides ``hook`` of the base class."""
+    return getattr(type(component), hook) is not getattr(Component, hook)

@@ -1,0 +1,308 @@
+"""The loop: a flat schedule of bound ``update`` methods run at a fixed rate.
+
+Everything is resolved before the loop starts: the schedule is a tuple of bound
+methods, timing rows go into a preallocated ring, and the loop itself does no
+name look-up, no formatting and no I/O. ``idle`` (optional) runs after an
+iteration has been recorded, outside the measured calculation time.
+
+What an iteration runs is a :class:`Plan`, compiled from the schedule and the set of
+active components. Changing that set (a lifecycle transition, later a fault policy
+that takes a component and its downstream out) compiles a new plan and swaps it in
+between two iterations: the loop reads ``executor.plan`` once per iteration, after
+the feeders (which is where a transition that arrived from the supervisor is
+applied), and has no per-component test. Components at several rates would get one
+plan per phase, chosen by the iteration's index, in the same place.
+"""
+
+from __future__ import annotations
+
+import math
+import sys
+from array import array
+from collections.abc import Callable, MutableSequence, Sequence
+from dataclasses import dataclass
+from typing import NamedTuple
+
+from ._clock import Clock
+from ._faults import WatchdogTripped
+from ._loop_state import LoopState
+from ._timing import COL_CALC, COL_ITERATION, COL_JITTER, COL_OVERRAN, COL_SCHEDULED, TimingWriter
+from ._timing import FIXED_COLUMNS as F
+
+STOP = 1  # end the loop: the user asked for it
+CONTROL = 2  # end the loop: a control request (load, unload, ...) waits; the loop resumes after it
+ABORT = 3  # end the loop abnormally (a signal, a lost supervisor): safe_stop hooks run
+
+
+class StopFlag:
+    """A word the loop reads once per iteration; non-zero ends it after the iteration.
+
+    ``cell`` is any int64 sequence: an ``array`` in one process, or a word of a
+    shared-memory segment the supervisor writes. Setting it is safe from a signal
+    handler.
+    """
+
+    __slots__ = ("cell",)
+
+    def __init__(self, cell: MutableSequence[int] | memoryview | None = None) -> None:
+        self.cell: MutableSequence[int] | memoryview = cell if cell is not None else array("q", [0])
+
+    @property
+    def requested(self) -> bool:
+        return self.cell[0] != 0
+
+    @requested.setter
+    def requested(self, value: bool) -> None:
+        self.cell[0] = STOP if value else 0
+
+    def set(self, reason: int = STOP) -> None:
+        self.cell[0] = reason
+
+    def clear(self) -> None:
+        self.cell[0] = 0
+
+
+SKIPPED = -1  # a component's time column in an iteration it did not run in
+
+
+class Plan(NamedTuple):
+    """What one iteration runs: ``(timing column, bound update)`` pairs in order, and the
+    timing columns of scheduled components that do not run (they get ``SKIPPED``)."""
+
+    steps: tuple[tuple[int, Callable[[], object]], ...]
+    skipped: tuple[int, ...]
+
+
+def hyperperiod(rates: Sequence[tuple[int, int]]) -> int:
+    """Iterations after which a schedule of (every, phase) rates repeats: their lcm."""
+    h = 1
+    for every, _ in rates:
+        h = h * every // math.gcd(h, every)
+    return h
+
+
+def compile_plans(
+    updates: Sequence[Callable[[], object]],
+    active: Sequence[bool],
+    rates: Sequence[tuple[int, int]] | None = None,
+) -> tuple[Plan, ...]:
+    """One plan per phase of the hyperperiod: iteration ``i`` runs plan ``i % len``.
+
+    ``rates[k]`` is ``(every, phase)``: update ``k`` runs in iterations where
+    ``(i - phase) % every == 0`` (every iteration when there are no rates).
+    """
+    if rates is None or all(every == 1 for every, _ in rates):
+        return (compile_plan(updates, active),)
+    if len(rates) != len(updates):
+        raise ValueError(f"{len(rates)} rates for a schedule of {len(updates)}")
+    tests = [lambda p, e=every, f=phase: (p - f) % e == 0 for every, phase in rates]
+    return tuple(
+        compile_plan(updates, [a and runs(p) for a, runs in zip(active, tests, strict=True)])
+        for p in range(hyperperiod(rates))
+    )
+
+
+def compile_plan(updates: Sequence[Callable[[], object]], active: Sequence[bool]) -> Plan:
+    """The plan that runs ``updates[k]`` where ``active[k]``, keeping every column."""
+    if len(active) != len(updates):
+        raise ValueError(f"{len(active)} active flags for a schedule of {len(updates)}")
+    steps = tuple((F + k, u) for k, u in enumerate(updates) if active[k])
+    skipped = tuple(F + k for k in range(len(updates)) if not active[k])
+    return Plan(steps, skipped)
+
+
+@dataclass
+class UpdateFailure(Exception):
+    """A component's ``update`` raised; carries where and when."""
+
+    index: int  # position in the schedule
+    iteration: int
+    time_ns: int
+    error: BaseException
+
+
+class Executor:
+    """Runs ``updates`` in order, once per period of ``clock``."""
+
+    def __init__(
+        self,
+        updates: Sequence[Callable[[], object]],
+        clock: Clock,
+        state: LoopState,
+        timing: TimingWriter | None = None,
+        *,
+        wait_policy: str = "absolute",
+        idle: Callable[[], object] | None = None,
+        feeders: Sequence[Callable[[], object]] = (),
+    ) -> None:
+        self.plan: Plan  # what each iteration runs; swapped between iterations by set_active()
+        # per phase of the hyperperiod (several rates); iteration i runs plans[i % len]
+        self.plans: tuple[Plan, ...] = ()
+        self.rates: tuple[tuple[int, int], ...] | None = None  # (every, phase) per update
+        self.updates = updates  # all active
+        self.clock = clock
+        self.state = state
+        self.timing = timing
+        self.relative = wait_policy == "relative"
+        self.idle = idle
+        # run first in every iteration: copy the newest middleware messages into inputs
+        self.feeders = tuple(feeders)
+        self.origin_ns: int | None = None  # time of the very first scheduled start
+        # where the next iteration is due; a later run() resumes on this grid
+        self.next_deadline_ns: int | None = None
+        # the timing column of the component whose update runs now (-1: none); a
+        # worker's is a shared-memory word, so a supervisor can name it if the worker dies
+        self.running: MutableSequence[int] | memoryview = array("q", [-1])
+        # watchdogs (0: off): the loop ends past this many overruns in a row, or
+        # within one second (frequency iterations from the first overrun counted)
+        self.max_consecutive_overruns = 0
+        self.max_overruns_per_second = 0
+
+    @property
+    def updates(self) -> tuple[Callable[[], object], ...]:
+        """The schedule: every component's update in order, one timing column each."""
+        return self._updates
+
+    @updates.setter
+    def updates(self, updates: Sequence[Callable[[], object]]) -> None:
+        self._updates = tuple(updates)
+        self.rates = None
+        self.set_active([True] * len(self._updates))
+
+    def set_active(self, active: Sequence[bool]) -> None:
+        """Run only the updates whose flag is true, from the next iteration on.
+
+        Call it between iterations (a feeder, ``idle``) or between runs. It compiles a
+        new plan (allocation, outside the loop's steady state) and swaps it in.
+        """
+        self.plans = compile_plans(self.updates, active, self.rates)
+        self.plan = self.plans[0]
+
+    def set_rates(self, rates: Sequence[tuple[int, int]], active: Sequence[bool]) -> None:
+        """Run update ``k`` every ``rates[k][0]`` iterations from phase ``rates[k][1]``."""
+        self.rates = tuple(rates)
+        self.set_active(active)
+
+    def run(self, iterations: int | None, stop: StopFlag) -> int:
+        """Run ``iterations`` iterations (None: until ``stop`` is set); return how many ran.
+
+        Raises :class:`UpdateFailure` when an update raises (any ``BaseException``),
+        and :class:`WatchdogTripped` after the iteration in which a watchdog fired.
+        """
+        timing = self.timing
+        if timing is None or len(timing.components) != len(self.updates):
+            raise RuntimeError("the executor has no timing writer for its schedule")
+        clock = self.clock
+        now = clock.now_ns
+        sleep_until = clock.sleep_until_ns
+        state = self.state
+        reserve = timing.ring.reserve
+        commit = timing.ring.commit
+        words = timing.words
+        scratch = timing.scratch
+        cell = stop.cell
+        period = state.period_ns
+        relative = self.relative
+        idle = self.idle
+        feeders = self.feeders
+        overruns = timing.overruns
+        count = timing.count
+        running = self.running
+        max_streak = self.max_consecutive_overruns or sys.maxsize
+        max_in_window = self.max_overruns_per_second or sys.maxsize
+        window = max(1, round(state.frequency))
+        streak = in_window = window_end = 0
+        # ROS time of an iteration = its scheduled start + this (0 for simulated and
+        # /clock time, whose clocks already count in it)
+        offset_of = getattr(clock, "ros_time_offset_ns", None)
+        ros_offset = offset_of() if offset_of is not None else 0
+
+        deadline = now()
+        if self.next_deadline_ns is not None and self.next_deadline_ns > deadline:
+            deadline = self.next_deadline_ns
+        if self.origin_ns is None:
+            self.origin_ns = deadline
+        origin = self.origin_ns
+        i = state.iteration + 1
+        end = -1 if iterations is None else i + iterations
+        first = i
+        k = -1
+        state.running = True
+        try:
+            while i != end and not cell[0]:
+                off = reserve()  # before the sleep: not part of the measured times
+                row: MutableSequence[int] | memoryview
+                if off >= 0:
+                    row, b = words, off >> 3
+                else:  # ring full: the row goes to scratch; the ring counts the drop
+                    row, b = scratch, 0
+                sleep_until(deadline)
+                t0 = now()
+                state.iteration = i
+                state.time_ns = deadline - origin
+                state.stamp_ns = deadline + ros_offset
+                t = t0
+                if feeders:  # in the iteration's time, not in its first component's
+                    for feed in feeders:
+                        feed()
+                    t = now()
+                # read after the feeders (a swap applies now); one plan per phase
+                plans = self.plans
+                steps, skipped = plans[i % len(plans)]
+                for k, update in steps:
+                    running[0] = k
+                    update()
+                    t1 = now()
+                    row[b + k] = t1 - t
+                    t = t1
+                k = -1
+                running[0] = -1
+                for c in skipped:
+                    row[b + c] = SKIPPED
+                row[b + COL_ITERATION] = i
+                row[b + COL_SCHEDULED] = deadline
+                row[b + COL_JITTER] = t0 - deadline
+                row[b + COL_CALC] = t - t0
+                deadline += period
+                if t > deadline:
+                    overruns += 1
+                    row[b + COL_OVERRAN] = 1
+                    if relative:
+                        deadline = t + period
+                    streak += 1
+                    if i >= window_end:
+                        window_end = i + window
+                        in_window = 0
+                    in_window += 1
+                    if streak > max_streak or in_window > max_in_window:
+                        if off >= 0:
+                            commit()
+                        count += 1
+                        if streak > max_streak:
+                            raise WatchdogTripped(
+                                "max_consecutive_overruns", max_streak, streak, i
+                            )
+                        raise WatchdogTripped(
+                            "max_overruns_per_second", max_in_window, in_window, i
+                        )
+                else:
+                    streak = 0
+                    row[b + COL_OVERRAN] = 0
+                if off >= 0:
+                    commit()
+                count += 1
+                i += 1
+                if idle is not None:
+                    idle()
+        except BaseException as exc:  # SystemExit and KeyboardInterrupt are named too
+            if k < 0:
+                raise
+            running[0] = -1
+            deadline += period  # the failed iteration used its slot on the grid
+            raise UpdateFailure(k - F, i, state.time_ns, exc) from exc
+        finally:
+            state.running = False
+            self.next_deadline_ns = deadline
+            timing.overruns = overruns
+            timing.count = count
+        return i - first

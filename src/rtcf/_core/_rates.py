@@ -1,0 +1,149 @@
+"""Components at several rates in one loop: dividers, phases and the plan they make.
+
+A component runs every iteration unless its launcher says otherwise: ``rate`` (Hz,
+dividing the runner's frequency exactly) or ``every`` (a divider), and optionally
+``phase`` (the iteration, modulo ``every``, it runs in). In an iteration where a slow
+component runs, it runs at its place in the data-flow order; in the others it is
+skipped and its outputs keep their last value (``OLD_DATA`` for readers; a port says
+which iteration its value was written in). Without a ``phase``, the runner spreads
+slow components over the phases, most expensive first (``cost_us``, a launcher
+parameter; 1 by default), so that their runs fall in different iterations.
+The schedule repeats every hyperperiod (the lcm of the dividers); the executor holds
+one precomputed plan per phase and picks it with one index per iteration.
+"""
+
+from __future__ import annotations
+
+import math
+from collections.abc import Mapping, Sequence
+from dataclasses import dataclass
+from typing import Any
+
+from ._errors import ConfigurationError
+
+
+@dataclass(frozen=True)
+class Rate:
+    """How often one component runs: ``rate`` Hz or every ``every`` iterations."""
+
+    rate: float = 0.0  # Hz; 0: not given
+    every: int = 0  # divider; 0: not given
+    phase: int | None = None  # None: the runner chooses
+    cost_us: float = 1.0  # what one run costs, for spreading the load
+
+    @classmethod
+    def from_params(cls, params: Mapping[str, Any], component: str) -> Rate:
+        """From a launcher's parameters ``rate``, ``every``, ``phase``, ``cost_us``."""
+
+        def number(key: str, kind: type) -> Any:
+            value = params.get(key)
+            if value is None:
+                return None
+            try:
+                if isinstance(value, bool):
+                    raise ValueError(value)
+                converted = kind(value)
+                if kind is int and float(value) != converted:
+                    raise ValueError(value)
+                return converted
+            except (TypeError, ValueError):
+                raise ConfigurationError(
+                    f"component {component!r}: {key} is {value!r}, which is not "
+                    + ("a whole number" if kind is int else "a number")
+                ) from None
+
+        rate = number("rate", float)
+        every = number("every", int)
+        phase = number("phase", int)
+        cost = number("cost_us", float)
+        if rate is not None and every is not None:
+            raise ConfigurationError(
+                f"component {component!r}: give rate or every, not both"
+            )
+        if rate is not None and not rate > 0:
+            raise ConfigurationError(f"component {component!r}: rate {rate:g} Hz must be above 0")
+        if every is not None and every < 1:
+            raise ConfigurationError(f"component {component!r}: every must be 1 or more")
+        if phase is not None and phase < 0:
+            raise ConfigurationError(f"component {component!r}: phase must not be negative")
+        return cls(rate or 0.0, every or 0, phase, 1.0 if cost is None else cost)
+
+    def divider(self, frequency: float, component: str) -> tuple[int, int | None]:
+        """``(every, phase)`` at the runner's ``frequency``; a clear error if ``rate``
+        does not divide it or ``phase`` is not below ``every``."""
+        every = self.every or 1
+        if self.rate:
+            k = frequency / self.rate
+            every = round(k)
+            if every < 1 or abs(k - every) > 1e-9 * k:
+                below = max(1, math.floor(k))
+                above = below + 1
+                nearest = " or ".join(
+                    f"{frequency / n:g} Hz (every:={n})" for n in sorted({below, above})
+                )
+                raise ConfigurationError(
+                    f"component {component!r}: rate {self.rate:g} Hz does not divide the "
+                    f"runner's frequency {frequency:g} Hz; the nearest rates that do are "
+                    f"{nearest}"
+                )
+        if self.phase is not None and self.phase >= every:
+            raise ConfigurationError(
+                f"component {component!r}: phase {self.phase} must be below every={every} "
+                "(it is the iteration, modulo every, the component runs in)"
+            )
+        return every, self.phase
+
+
+def spread(
+    names: Sequence[str],
+    dividers: Sequence[tuple[int, int | None]],
+    costs: Sequence[float],
+) -> list[tuple[int, int]]:
+    """Phases for the components that have none: greedy, most expensive first.
+
+    Each goes to the phase whose worst iteration (over the hyperperiod) would be the
+    cheapest with it; ties go to the lowest phase. Deterministic: the same inputs
+    give the same plan.
+    """
+    h = 1
+    for every, _ in dividers:
+        h = h * every // math.gcd(h, every)
+    load = [0.0] * h
+    result: list[tuple[int, int]] = [(every, phase or 0) for every, phase in dividers]
+    fixed = [k for k, (every, phase) in enumerate(dividers) if phase is not None or every == 1]
+    for k in fixed:
+        every, phase = result[k]
+        for i in range(phase, h, every):
+            load[i] += costs[k]
+    free = sorted(
+        (k for k in range(len(dividers)) if k not in set(fixed)),
+        key=lambda k: (-costs[k], names[k]),
+    )
+    for k in free:
+        every = dividers[k][0]
+        best = min(
+            range(every), key=lambda f: (max(load[i] for i in range(f, h, every)), f)
+        )
+        result[k] = (every, best)
+        for i in range(best, h, every):
+            load[i] += costs[k]
+    return result
+
+
+def plan_table(
+    names: Sequence[str], rates: Sequence[tuple[int, int]], costs: Sequence[float]
+) -> tuple[list[str], float]:
+    """The plan as text (iteration mod hyperperiod x components) and its worst cost."""
+    h = 1
+    for every, _ in rates:
+        h = h * every // math.gcd(h, every)
+    width = max([len(n) for n in names] + [9])
+    lines = [f"{'phase':>5}  " + "  ".join(f"{n:<{width}}" for n in names) + "  cost [us]"]
+    worst = 0.0
+    for p in range(h):
+        runs = [(p - phase) % every == 0 for every, phase in rates]
+        cost = sum(c for c, r in zip(costs, runs, strict=True) if r)
+        worst = max(worst, cost)
+        cells = "  ".join(f"{'x' if r else '.':<{width}}" for r in runs)
+        lines.append(f"{p:>5}  {cells}  {cost:g}")
+    return lines, worst

@@ -1,0 +1,511 @@
+"""Lock-free channels in a buffer: rings of records and latest-value mailboxes.
+
+A :class:`Ring` queue carries a stream (events, log records, timing rows: every
+record matters, in order); a :class:`Mailbox` slot carries state (only the latest
+value matters). Both live in any writable buffer: a bytearray inside one process,
+or a shared-memory segment (:mod:`rtcf._runtime._shm`) mapped by the real-time
+worker and the supervisor. Neither takes a lock or makes a system call, so the
+real-time side never waits for the other side, whatever it is doing.
+
+Memory ordering. Counters are aligned int64 words read and written through
+``memoryview.cast("q")``; CPython copies such an item with one 8-byte ``memcpy``,
+which compiles to a single machine load or store, so a word is never seen half
+written. Each access is a separate call into C that the compiler cannot reorder,
+and x86-64 keeps the rest in order (total store order): stores become visible to
+other cores in program order, loads are not reordered with other loads, and a
+store is not moved before an earlier load. So a producer that writes a record and
+then the head counter publishes a complete record, and a consumer that reads the
+head, then the record, then stores the tail never lets the producer reuse a slot
+it is still reading. Weakly ordered CPUs (ARM, POWER) need barriers between those
+steps, which pure Python cannot issue: see :data:`MEMORY_MODEL_OK`.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import platform
+from types import TracebackType
+from typing import TYPE_CHECKING
+
+if TYPE_CHECKING:
+    from _typeshed import ReadableBuffer, WriteableBuffer
+
+__all__ = ["MEMORY_MODEL_OK", "Mailbox", "Ring"]
+
+# The orderings described in the module docstring hold on x86 only. Other
+# architectures need memory barriers around the counter updates (not provided
+# yet); channels still work there in a single process, but not across processes.
+# On 32-bit x86 an 8-byte copy may also be split in two: counters below 2**31 are safe.
+MEMORY_MODEL_OK = platform.machine() in ("x86_64", "AMD64", "i686", "i386")
+
+_CACHE_LINE = 64
+
+
+def _round_up(n: int, multiple: int) -> int:
+    return -(-n // multiple) * multiple
+
+
+def _byte_view(buf: WriteableBuffer) -> memoryview:
+    """A flat writable byte view of ``buf`` whose start is 8-byte aligned in memory."""
+    with memoryview(buf) as mv:
+        if mv.readonly:
+            raise ValueError("a channel needs a writable buffer (a Segment's buf, a bytearray)")
+        if not mv.c_contiguous:
+            raise ValueError("a channel needs a contiguous buffer")
+        view = mv.cast("B")
+    if len(view) == 0:
+        view.release()
+        raise ValueError("a channel needs a non-empty buffer")
+    cell = ctypes.c_char.from_buffer(view)
+    address = ctypes.addressof(cell)
+    del cell
+    if address % 8:
+        view.release()
+        # Unaligned words could be stored in two parts and read half-written.
+        raise ValueError(
+            "a channel buffer must start on an 8-byte boundary (slice a Segment's buf "
+            "at a multiple of 64)"
+        )
+    return view
+
+
+def _release(*views: memoryview) -> None:
+    for view in views:
+        view.release()
+
+
+# Ring header: int64 words. Line 0 is written once by create(); line 1 only by the
+# producer; line 2 only by the consumer (separate cache lines: no false sharing).
+_RING_MAGIC = int.from_bytes(b"rtcfRNG1", "little")
+_R_MAGIC, _R_CAPACITY, _R_RECORD_SIZE = 0, 1, 2
+_R_HEAD, _R_DROPPED = 8, 9
+_R_TAIL = 16
+_RING_HEADER = 3 * _CACHE_LINE
+
+
+class Ring:
+    """Bounded lock-free single-producer/single-consumer ring of fixed-size records.
+
+    It lives in a buffer (usually a Segment's buf, possibly at an offset; or a
+    bytearray for in-process use). Head and tail are counts of records committed and
+    released, never wrapped, so full and empty are told apart without a spare slot.
+    When full, the producer drops the new record and counts it: the real-time side
+    never waits for a slow consumer. Use one object per side: the producer on the
+    one side and the consumer on the other.
+    """
+
+    __slots__ = ("_ctl", "_mask", "_next", "_tail_seen", "capacity", "data", "record_size")
+
+    def __init__(self, view: memoryview, capacity: int, record_size: int) -> None:
+        self.capacity = capacity
+        self.record_size = record_size
+        self._mask = capacity - 1
+        self._ctl = view[:_RING_HEADER].cast("q")
+        self.data = view[_RING_HEADER : _RING_HEADER + capacity * record_size]
+        self._tail_seen = self._ctl[_R_TAIL]  # a lower bound of the tail (it only grows)
+        self._next = 0  # head after the reserved record; 0 when none is reserved
+
+    @staticmethod
+    def nbytes(capacity: int, record_size: int) -> int:
+        """Bytes a ring needs; capacity rounds up to a power of two, record size to 8."""
+        capacity, record_size = _ring_shape(capacity, record_size)
+        return _RING_HEADER + capacity * record_size
+
+    @classmethod
+    def create(cls, buf: WriteableBuffer, capacity: int, record_size: int) -> Ring:
+        """Lay out an empty ring at the start of ``buf``."""
+        capacity, record_size = _ring_shape(capacity, record_size)
+        view = _byte_view(buf)
+        try:
+            need = _RING_HEADER + capacity * record_size
+            if len(view) < need:
+                raise ValueError(
+                    f"buffer of {len(view)} bytes is too small for a ring of {capacity} "
+                    f"records of {record_size} bytes ({need} bytes needed)"
+                )
+            with view[:_RING_HEADER].cast("q") as ctl:
+                for i in range(len(ctl)):
+                    ctl[i] = 0
+                ctl[_R_CAPACITY] = capacity
+                ctl[_R_RECORD_SIZE] = record_size
+                ctl[_R_MAGIC] = _RING_MAGIC  # last: an opener sees a complete header
+            return cls(view, capacity, record_size)
+        finally:
+            view.release()
+
+    @classmethod
+    def open(cls, buf: WriteableBuffer) -> Ring:
+        """Attach to the ring another process (or object) created in ``buf``."""
+        view = _byte_view(buf)
+        try:
+            if len(view) < _RING_HEADER:
+                raise ValueError(f"buffer of {len(view)} bytes is too small to hold a ring")
+            with view[:_RING_HEADER].cast("q") as ctl:
+                magic, capacity, record_size = ctl[0], ctl[1], ctl[2]
+            if magic != _RING_MAGIC:
+                raise ValueError(
+                    "buffer does not hold an rtcf ring (bad magic number): "
+                    "was it laid out with Ring.create()?"
+                )
+            if capacity <= 0 or capacity & (capacity - 1) or record_size <= 0 or record_size % 8:
+                raise ValueError(
+                    f"corrupt ring header: capacity {capacity}, record size {record_size}"
+                )
+            need = _RING_HEADER + capacity * record_size
+            if len(view) < need:
+                raise ValueError(
+                    f"buffer of {len(view)} bytes is shorter than its ring ({need} bytes)"
+                )
+            return cls(view, capacity, record_size)
+        finally:
+            view.release()
+
+    def close(self) -> None:
+        """Release the views into the buffer (so its Segment can close). Idempotent."""
+        _release(self._ctl, self.data)
+
+    def __enter__(self) -> Ring:
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        self.close()
+
+    # -- producer side ---------------------------------------------------------
+
+    def reserve(self) -> int:
+        """Byte offset in ``data`` of the next free record; -1 (and one drop) if full."""
+        ctl = self._ctl
+        head = ctl[_R_HEAD]
+        if head - self._tail_seen >= self.capacity:
+            # Looks full from the cached tail: only now read the consumer's line.
+            tail = self._tail_seen = ctl[_R_TAIL]
+            if head - tail >= self.capacity:
+                ctl[_R_DROPPED] += 1
+                self._next = 0
+                return -1
+        self._next = head + 1
+        return (head & self._mask) * self.record_size
+
+    def commit(self) -> None:
+        """Publish the record reserved last: the head moves only after it is written."""
+        head = self._next
+        if not head:
+            raise RuntimeError("Ring.commit() without a successful reserve()")
+        self._ctl[_R_HEAD] = head
+        self._next = 0
+
+    def push(self, record: ReadableBuffer) -> bool:
+        """Copy ``record`` (at most record_size bytes) into the ring; False if dropped."""
+        if type(record) is bytes or type(record) is bytearray:
+            return self._push(record)
+        with memoryview(record) as mv, mv.cast("B") as flat:
+            return self._push(flat)
+
+    def _push(self, record: bytes | bytearray | memoryview) -> bool:
+        n = len(record)
+        if n > self.record_size:
+            raise ValueError(
+                f"record of {n} bytes does not fit the ring's {self.record_size}-byte records"
+            )
+        # reserve() and commit() inlined: this is the real-time hot path.
+        ctl = self._ctl
+        head = ctl[_R_HEAD]
+        if head - self._tail_seen >= self.capacity:
+            tail = self._tail_seen = ctl[_R_TAIL]
+            if head - tail >= self.capacity:
+                ctl[_R_DROPPED] += 1
+                return False
+        offset = (head & self._mask) * self.record_size
+        self.data[offset : offset + n] = record
+        ctl[_R_HEAD] = head + 1
+        return True
+
+    @property
+    def dropped(self) -> int:
+        """Records dropped because the ring was full (kept in the shared header)."""
+        return self._ctl[_R_DROPPED]
+
+    @property
+    def produced(self) -> int:
+        """Records committed so far (the head count)."""
+        return self._ctl[_R_HEAD]
+
+    # -- consumer side ---------------------------------------------------------
+
+    def __len__(self) -> int:
+        ctl = self._ctl
+        return ctl[_R_HEAD] - ctl[_R_TAIL]
+
+    def pending(self) -> tuple[int, int]:
+        """(first slot, n) of waiting records contiguous in ``data``, up to the wrap.
+
+        Process them in place, then :meth:`release` them; call again for the part
+        after the wrap.
+        """
+        ctl = self._ctl
+        tail = ctl[_R_TAIL]
+        n = ctl[_R_HEAD] - tail
+        slot = tail & self._mask
+        room = self.capacity - slot
+        return slot, (n if n < room else room)
+
+    def release(self, n: int) -> None:
+        """Hand ``n`` consumed records back to the producer."""
+        ctl = self._ctl
+        tail = ctl[_R_TAIL]
+        waiting = ctl[_R_HEAD] - tail
+        if not 0 <= n <= waiting:
+            raise ValueError(f"cannot release {n} records: {waiting} are waiting")
+        ctl[_R_TAIL] = tail + n
+
+    def pop(self) -> bytes | None:
+        """The oldest record, copied out; None if the ring is empty."""
+        ctl = self._ctl
+        tail = ctl[_R_TAIL]
+        if ctl[_R_HEAD] == tail:
+            return None
+        offset = (tail & self._mask) * self.record_size
+        record = self.data[offset : offset + self.record_size].tobytes()
+        ctl[_R_TAIL] = tail + 1
+        return record
+
+    def pop_into(self, out: WriteableBuffer) -> bool:
+        """Copy the oldest record into ``out`` (record_size bytes or more); False if empty."""
+        ctl = self._ctl
+        tail = ctl[_R_TAIL]
+        size = self.record_size
+        if type(out) is bytearray:  # fast path: no views to make
+            if len(out) < size:
+                raise ValueError(f"output buffer of {len(out)} bytes, records have {size}")
+            if ctl[_R_HEAD] == tail:
+                return False
+            offset = (tail & self._mask) * size
+            out[:size] = self.data[offset : offset + size]
+        else:
+            with memoryview(out) as mv, mv.cast("B") as flat:
+                if len(flat) < size:
+                    raise ValueError(f"output buffer of {len(flat)} bytes, records have {size}")
+                if ctl[_R_HEAD] == tail:
+                    return False
+                offset = (tail & self._mask) * size
+                flat[:size] = self.data[offset : offset + size]
+        ctl[_R_TAIL] = tail + 1
+        return True
+
+    def __repr__(self) -> str:
+        try:
+            return (
+                f"<Ring {self.capacity} x {self.record_size} bytes, {len(self)} waiting, "
+                f"{self.dropped} dropped>"
+            )
+        except ValueError:  # views released
+            return "<Ring closed>"
+
+
+def _ring_shape(capacity: int, record_size: int) -> tuple[int, int]:
+    if capacity < 1:
+        raise ValueError(f"ring capacity must be at least 1, not {capacity}")
+    if record_size < 1:
+        raise ValueError(f"ring record size must be at least 1 byte, not {record_size}")
+    return 1 << (capacity - 1).bit_length(), _round_up(record_size, 8)
+
+
+# Mailbox header: line 0 written once by create(); line 1 by the writer. Each of
+# the two buffers has a line of its own (sequence, length) and then the payload.
+_MAILBOX_MAGIC = int.from_bytes(b"rtcfMBX1", "little")
+_M_MAGIC, _M_SIZE = 0, 1
+_M_LATEST, _M_VERSION = 8, 9
+_M_SEQ, _M_LENGTH, _M_STAMP = 0, 1, 2  # _M_STAMP: the write count of the value held
+_MAILBOX_HEADER = 2 * _CACHE_LINE
+
+
+def _mailbox_stride(size: int) -> int:
+    return _CACHE_LINE + _round_up(size, _CACHE_LINE)
+
+
+class Mailbox:
+    """Latest-value mailbox (seqlock), single writer, single reader, for state.
+
+    Two buffers: the writer fills the one the reader is not on, then publishes it,
+    so the reader almost never finds the value mid-write; when it does (the writer
+    wrote twice during one read), the sequence word tells, and the reader keeps its
+    previous value instead of waiting. Each value carries its write count, so a
+    reader that followed a 'latest' word read just before the writer flipped it
+    never returns a value older than one it already returned (found by the
+    million-write test between processes).
+    """
+
+    __slots__ = ("_ctl", "_meta", "_newest", "_payload", "size")
+
+    def __init__(self, view: memoryview, size: int) -> None:
+        self.size = size
+        # the stamp of the newest value this reader returned: a reader that followed a
+        # stale 'latest' to the other buffer must not go back to an older value
+        self._newest = 0
+        stride = _mailbox_stride(size)
+        starts = (_MAILBOX_HEADER, _MAILBOX_HEADER + stride)
+        self._ctl = view[:_MAILBOX_HEADER].cast("q")
+        self._meta = tuple(view[s : s + _CACHE_LINE].cast("q") for s in starts)
+        self._payload = tuple(view[s + _CACHE_LINE : s + _CACHE_LINE + size] for s in starts)
+
+    @staticmethod
+    def nbytes(size: int) -> int:
+        """Bytes a mailbox for payloads of up to ``size`` bytes needs."""
+        if size < 0:
+            raise ValueError(f"mailbox size must not be negative, not {size}")
+        return _MAILBOX_HEADER + 2 * _mailbox_stride(size)
+
+    @classmethod
+    def create(cls, buf: WriteableBuffer, size: int) -> Mailbox:
+        """Lay out an empty (never written) mailbox at the start of ``buf``."""
+        need = cls.nbytes(size)
+        view = _byte_view(buf)
+        try:
+            if len(view) < need:
+                raise ValueError(
+                    f"buffer of {len(view)} bytes is too small for a mailbox of "
+                    f"{size} bytes ({need} bytes needed)"
+                )
+            with view[:need].cast("q") as words:
+                for i in range(len(words)):
+                    words[i] = 0
+                words[_M_SIZE] = size
+                words[_M_MAGIC] = _MAILBOX_MAGIC  # last: an opener sees a complete header
+            return cls(view, size)
+        finally:
+            view.release()
+
+    @classmethod
+    def open(cls, buf: WriteableBuffer) -> Mailbox:
+        """Attach to the mailbox another process (or object) created in ``buf``."""
+        view = _byte_view(buf)
+        try:
+            if len(view) < _MAILBOX_HEADER:
+                raise ValueError(f"buffer of {len(view)} bytes is too small to hold a mailbox")
+            with view[:_MAILBOX_HEADER].cast("q") as ctl:
+                magic, size = ctl[_M_MAGIC], ctl[_M_SIZE]
+            if magic != _MAILBOX_MAGIC:
+                raise ValueError(
+                    "buffer does not hold an rtcf mailbox (bad magic number): "
+                    "was it laid out with Mailbox.create()?"
+                )
+            need = cls.nbytes(size)
+            if len(view) < need:
+                raise ValueError(
+                    f"buffer of {len(view)} bytes is shorter than its mailbox ({need} bytes)"
+                )
+            return cls(view, size)
+        finally:
+            view.release()
+
+    def close(self) -> None:
+        """Release the views into the buffer (so its Segment can close). Idempotent."""
+        _release(self._ctl, *self._meta, *self._payload)
+
+    def __enter__(self) -> Mailbox:
+        return self
+
+    def __exit__(
+        self,
+        exc_type: type[BaseException] | None,
+        exc: BaseException | None,
+        tb: TracebackType | None,
+    ) -> None:
+        self.close()
+
+    def write(self, data: ReadableBuffer) -> None:
+        """Publish a new value (at most ``size`` bytes). Single writer."""
+        if type(data) is bytes or type(data) is bytearray:
+            self._write(data)
+        else:
+            with memoryview(data) as mv, mv.cast("B") as flat:
+                self._write(flat)
+
+    def _write(self, data: bytes | bytearray | memoryview) -> None:
+        n = len(data)
+        if n > self.size:
+            raise ValueError(f"mailbox payload of {n} bytes exceeds its size of {self.size} bytes")
+        ctl = self._ctl
+        b = 1 - ctl[_M_LATEST]  # the buffer a reader that starts now will not pick
+        meta = self._meta[b]
+        seq = meta[_M_SEQ]
+        meta[_M_SEQ] = seq + 1  # odd: being written
+        self._payload[b][:n] = data
+        meta[_M_LENGTH] = n
+        version = ctl[_M_VERSION] + 1
+        meta[_M_STAMP] = version
+        meta[_M_SEQ] = seq + 2  # even: complete
+        ctl[_M_LATEST] = b
+        ctl[_M_VERSION] = version
+
+    def try_read_into(self, out: WriteableBuffer) -> int:
+        """One attempt to copy the latest value into ``out``; never waits.
+
+        Returns the payload length, -1 if never written, or -2 if the value changed
+        during the copy (keep the previous value and try again next time; ``out``
+        may then hold a partial copy).
+        """
+        b = self._ctl[_M_LATEST]
+        meta = self._meta[b]
+        seq = meta[_M_SEQ]
+        if seq & 1:
+            return -2
+        if not seq:
+            return -1
+        stamp = meta[_M_STAMP]
+        if stamp < self._newest:  # older than what this reader already returned
+            return -2
+        n = meta[_M_LENGTH]
+        payload = self._payload[b]
+        if n != self.size:
+            payload = payload[:n]
+        if type(out) is bytearray:  # fast path: no views to make
+            if n > len(out):
+                self._too_small(len(out), n, meta, seq)
+                return -2
+            out[:n] = payload
+        else:
+            with memoryview(out) as mv, mv.cast("B") as flat:
+                if n > len(flat):
+                    self._too_small(len(flat), n, meta, seq)
+                    return -2
+                flat[:n] = payload
+        if meta[_M_SEQ] != seq:
+            return -2
+        self._newest = stamp
+        return n
+
+    @staticmethod
+    def _too_small(room: int, n: int, meta: memoryview, seq: int) -> None:
+        """Raise unless the length was read mid-write (then the caller returns -2)."""
+        if meta[_M_SEQ] == seq:
+            raise ValueError(f"output buffer of {room} bytes, the value has {n}")
+
+    def read(self, retries: int = 1000) -> bytes | None:
+        """The latest value (non-real-time side: retries while it is being rewritten)."""
+        out = bytearray(self.size)
+        for _ in range(max(1, retries)):
+            n = self.try_read_into(out)
+            if n >= 0:
+                return bytes(out[:n])
+            if n == -1:
+                return None
+        raise RuntimeError(
+            f"mailbox value kept changing during {max(1, retries)} read attempts"
+        )
+
+    @property
+    def version(self) -> int:
+        """Completed writes: a reader compares it with the last one it saw."""
+        return self._ctl[_M_VERSION]
+
+    def __repr__(self) -> str:
+        try:
+            return f"<Mailbox {self.size} bytes, version {self.version}>"
+        except ValueError:  # views released
+            return "<Mailbox closed>"

@@ -1,0 +1,996 @@
+"""The runner: holds components, wires them, and runs them in one loop.
+
+Loading or unloading a component stops the loop, re-resolves the graph and, if the
+mode allows, lets it start again, as the original rt_runner does. The compiled
+schedule is a flat tuple of bound ``update`` methods whose ports already share
+their slots; nothing is looked up by name while the loop runs.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Callable, Iterable, Mapping, Sequence
+from dataclasses import dataclass, field
+from typing import Any
+
+from ._clock import Clock, MonotonicClock
+from ._component import Component, _attach, overrides
+from ._errors import ComponentError, ConfigurationError, Location, LoopError, RtcfError
+from ._executor import ABORT, Executor, StopFlag, UpdateFailure
+from ._faults import DEACTIVATE as ON_ERROR_DEACTIVATE
+from ._faults import RESTART as ON_ERROR_RESTART
+from ._faults import (
+    FailurePolicy,
+    Fault,
+    SafeStopOutcome,
+    WatchdogTripped,
+    downstream,
+)
+from ._graph import Graph, GraphNode, PortInfo, build_graph
+from ._lifecycle import (
+    ACTIVATE,
+    ACTIVE,
+    CLEANUP,
+    CONFIGURE,
+    DEACTIVATE,
+    ERROR,
+    ERRORPROCESSING,
+    FAILURE,
+    FINALIZED,
+    INACTIVE,
+    REFUSED,
+    REQUESTS,
+    RESULTS,
+    STATE_LABELS,
+    SUCCESS,
+    UNCONFIGURED,
+    UNKNOWN,
+    TransitionOutcome,
+    available_transitions,
+    refused,
+    resolve_transition,
+)
+from ._loader import load_component_class
+from ._log import LogLevel, LogRecord, LogRing, PythonLoggingSink, RecordSink
+from ._loop_state import LoopState
+from ._message_types import type_name
+from ._names import Resolver, join, normalize_namespace, validate_name
+from ._params import ParameterStore
+from ._ports import InputPort, OutputPort
+from ._rates import Rate, plan_table, spread
+from ._rings import Ring
+from ._settings import RunnerSettings
+from ._timing import TimingAggregate, TimingSummary, TimingWriter, local_ring
+from ._tunables import LIFECYCLE, LOG_LEVEL, PARAMETER
+
+
+@dataclass
+class ComponentSpec:
+    """A request to load one component (what an rt_launcher sends to its runner).
+
+    Give the class either directly (``cls``) or as ``module`` and ``class_name``.
+    ``params`` are private parameters (``gain`` means ``~gain``), added to the
+    runner's parameter tree on load. ``topics_ignore_for_graph`` is a full-match
+    regex; matching incoming connections do not constrain the order. ``log_level``
+    is the component's start level (before ``configure``); None: the runner's.
+    ``policy`` says what the loop does when its ``update`` raises (``on_error``).
+    """
+
+    name: str
+    cls: type[Component] | None = None
+    module: str = ""
+    class_name: str = ""
+    namespace: str = "/"
+    remaps: list[tuple[str, str]] | Mapping[str, str] = field(default_factory=list)
+    params: Mapping[str, Any] = field(default_factory=dict)
+    is_first: bool = False
+    topics_ignore_for_graph: str = ""
+    location: Location | None = None
+    log_level: int | None = None
+    policy: FailurePolicy = field(default_factory=FailurePolicy)
+    rate: Rate = field(default_factory=Rate)  # how often it runs (rate, every, phase)
+
+    @property
+    def full_name(self) -> str:
+        return join(normalize_namespace(self.namespace), self.name)
+
+    @property
+    def type_name(self) -> str:
+        if self.cls is not None:
+            return f"{self.cls.__module__}.{self.cls.__qualname__}"
+        return f"{self.module}.{self.class_name}"
+
+
+@dataclass
+class _Loaded:
+    spec: ComponentSpec
+    component: Component
+    ignore: re.Pattern[str] | None
+    state: int = INACTIVE  # lifecycle (_lifecycle): loaded means configured
+    autostart: bool = True  # activated when the loop next starts (until a transition)
+    restarts: int = 0  # times on_error restart brought it back
+
+
+@dataclass
+class RunResult:
+    """What one call of :meth:`Runner.run` did."""
+
+    iterations: int
+    stopped_by: str  # "count", "stop" or "abort" (a signal: safe_stop hooks ran)
+    timing: TimingSummary
+    order: list[str]
+    log_records_dropped: int
+    simulated: bool
+    # filled in by a supervisor: what the worker applied, and the full histograms
+    realtime: dict[str, Any] | None = None
+    aggregate: TimingAggregate | None = None
+    faults: list[Fault] = field(default_factory=list)  # failures contained by a policy
+    safe_stops: list[SafeStopOutcome] = field(default_factory=list)
+
+
+class Runner:
+    """Loads components and runs them sequentially in one loop at ``settings.frequency``."""
+
+    def __init__(
+        self,
+        settings: RunnerSettings | None = None,
+        *,
+        clock: Clock | None = None,
+        parameters: ParameterStore | None = None,
+        name: str = "rt_runner",
+        log_sink: Callable[[LogRecord], None] | None = None,
+        log_capacity: int = 4096,
+        log_level: int | str = "info",
+        timing_capacity: int = 1 << 12,
+        log_ring: RecordSink | None = None,
+        log_emit: Callable[[int, str, str, int, int], None] | None = None,
+        stop_flag: StopFlag | None = None,
+    ) -> None:
+        self.settings = settings or RunnerSettings()
+        self.name = name
+        self.clock: Clock = clock or MonotonicClock()
+        self.parameters = parameters if parameters is not None else ParameterStore()
+        self.state = LoopState(self.settings.frequency)
+        # in a worker the records go to shared memory and the supervisor drains them
+        self.log_ring: RecordSink = log_ring if log_ring is not None else LogRing(log_capacity)
+        self.log_sink = log_sink or PythonLoggingSink()
+        self._log_emit = log_emit or self._emit_now
+        # a worker's flag is a shared-memory word the supervisor sets and clears
+        self._owns_stop_flag = stop_flag is None
+        self.stop_flag = stop_flag if stop_flag is not None else StopFlag()
+        self.log_level = LogLevel[log_level.upper()] if isinstance(log_level, str) else log_level
+        self._timing_capacity = timing_capacity
+        self._loaded: dict[str, _Loaded] = {}
+        self._triggered = False
+        self._graph: Graph | None = None
+        self._executor: Executor | None = None
+        self._previous: Executor | None = None  # the last executor, for the time grid
+        self._schedule: list[str] = []
+        self._rates: list[tuple[int, int]] = []  # (every, phase) per scheduled component
+        # told of every lifecycle change of a component: a transition, a fault's take-out
+        self.transition_listeners: list[Callable[[str, TransitionOutcome], None]] = []
+        # the executor's running-component word (a worker passes a shared-memory one)
+        self.running_cell: Any = None
+        self.faults: list[Fault] = []  # contained failures of this runner's life
+        self.on_fault: Callable[[Fault], None] | None = None  # a worker counts them
+        self.safe_stops: list[SafeStopOutcome] = []  # of the last safe stop
+        # told (component, hook) before a hook outside the loop runs, ("", "") after: a
+        # worker passes it on, so that its supervisor can name a hook that hangs
+        self.hook_observer: Callable[[str, str], None] | None = None
+
+    # -- loading ------------------------------------------------------------
+    @property
+    def components(self) -> dict[str, Component]:
+        return {n: entry.component for n, entry in self._loaded.items()}
+
+    def load(self, spec: ComponentSpec) -> Component:
+        """Construct and configure a component; the loop re-resolves before it next runs."""
+        file = spec.location.file if spec.location else None
+        line = spec.location.line if spec.location else None
+        full = spec.full_name
+
+        def fail(msg: str, cause: BaseException | None = None) -> ComponentError:
+            err = ComponentError(f"component {full!r}: {msg}", component=full, file=file, line=line)
+            err.__cause__ = cause
+            return err
+
+        problem = validate_name(spec.name, what="component name")
+        if problem or "/" in spec.name:
+            raise fail(problem or "a component name must not contain '/'; use the namespace")
+        if full in self._loaded:
+            raise fail("is already loaded; give each component a unique name")
+        s = self.settings
+        if s.mode == "wait_for_components" and len(self._loaded) >= s.num_components_expected:
+            raise fail(
+                f"is one more than the {s.num_components_expected} components this runner "
+                "expects (num_components_expected); raise that number or load fewer"
+            )
+        try:
+            ignore = (
+                re.compile(spec.topics_ignore_for_graph) if spec.topics_ignore_for_graph else None
+            )
+        except re.error as exc:
+            raise fail(
+                f"topics_ignore_for_graph {spec.topics_ignore_for_graph!r} is not a valid "
+                f"regular expression: {exc}"
+            ) from None
+        try:  # a rate that does not divide the frequency: say so before configure runs
+            spec.rate.divider(self.settings.frequency, full)
+        except ConfigurationError as exc:
+            raise ComponentError(exc.message, component=full, file=file, line=line) from None
+        cls = spec.cls
+        if cls is None:
+            try:
+                cls = load_component_class(spec.module, spec.class_name, component=full)
+            except ComponentError as exc:
+                raise ComponentError(
+                    exc.message, component=full, file=file, line=line
+                ) from exc.__cause__
+        namespace = normalize_namespace(spec.namespace)
+        resolver = Resolver(namespace, spec.name, spec.remaps)
+        for key, value in spec.params.items():
+            self.parameters.set(resolver.private(key), value)
+
+        component = cls.__new__(cls)
+        _attach(
+            component,
+            name=spec.name,
+            namespace=namespace,
+            resolver=resolver,
+            store=self.parameters,
+            ring=self.log_ring,
+            state=self.state,
+            emit=self._log_emit,
+        )
+        component.log.set_level(self.log_level if spec.log_level is None else spec.log_level)
+        try:
+            component.__init__()  # type: ignore[misc]
+            self._observe(full, "configure")
+            ok = component.configure()
+        except RtcfError as exc:
+            self.drain_logs()
+            raise fail(f"configure() failed: {exc}", exc) from exc
+        except Exception as exc:
+            self.drain_logs()
+            raise fail(f"configure() raised {type(exc).__name__}: {exc}", exc) from exc
+        self.drain_logs()
+        if ok is False:
+            raise fail("configure() returned False")
+        component._rtcf_configured = True
+        component.params.sealed = True
+        self._loaded[full] = _Loaded(spec, component, ignore)
+        self._invalidate()
+        return component
+
+    def _entry(self, name: str) -> _Loaded:
+        full = normalize_namespace(name) if name.startswith("/") else join("/", name)
+        entry = self._loaded.get(full)
+        if entry is None:
+            known = ", ".join(self._loaded) or "none"
+            raise ComponentError(f"component {full!r} is not loaded (loaded: {known})")
+        return entry
+
+    def unload(self, name: str) -> None:
+        """Stop and clean up a component and take it out of the loop."""
+        entry = self._entry(name)
+        full = entry.spec.full_name
+        del self._loaded[full]
+        self._invalidate()
+        errors = self._teardown([entry])
+        if errors:
+            raise errors[0]
+
+    # -- tuning ---------------------------------------------------------------
+    def describe_component(self, name: str) -> dict[str, Any]:
+        """A loaded component as tools show it: type, ports, parameters, tunables."""
+        entry = self._entry(name)
+        comp = entry.component
+        full = entry.spec.full_name
+        private = self.parameters.get(comp._rtcf_resolver.private(), {})
+        return {
+            "name": full,
+            "type": entry.spec.type_name,
+            "launcher": "",
+            "inputs": [_port_info(p) for p in comp._rtcf_inputs.values()],
+            "outputs": [_port_info(p) for p in comp._rtcf_outputs.values()],
+            "parameters": private if isinstance(private, dict) else {},
+            "tunables": [
+                {**t.spec.to_dict(), "value": t.value} for t in comp.params.declared.values()
+            ],
+            "log_level": comp.log.level,
+            "lifecycle": STATE_LABELS[entry.state],
+        }
+
+    def introspect(self) -> dict[str, Any]:
+        """What the original's introspection scripts show: components with their ports,
+        connections with their publishers and subscribers and whether they reach the
+        middleware, and the execution order."""
+        maps = self.settings.maps_to_ros
+        connections: dict[str, dict[str, Any]] = {}
+        for full, entry in self._loaded.items():
+            comp = entry.component
+            roles = ((comp._rtcf_outputs, "publishers"), (comp._rtcf_inputs, "subscribers"))
+            for table, role in roles:
+                for port in table.values():
+                    c = connections.setdefault(port.topic, {
+                        "topic": port.topic,
+                        "type": type_name(port.type),
+                        "publishers": [],
+                        "subscribers": [],
+                        "ros": maps(port.topic),
+                    })
+                    c[role].append(full)
+        try:
+            order, problem = list(self.graph.order), ""
+        except RtcfError as exc:
+            order, problem = [], str(exc)
+        return {
+            "runner": self.name,
+            "frequency": self.settings.frequency,
+            "mode": self.settings.mode,
+            "components": [self.describe_component(n) for n in self._loaded],
+            "connections": [connections[t] for t in sorted(connections)],
+            "order": order,
+            "problem": problem,
+        }
+
+    def set_parameter(self, component: str, name: str, value: Any) -> Any:
+        """Validate and set a tunable parameter; returns the value as set.
+
+        In this process it takes effect at once: call it between iterations (from
+        ``on_iteration``) or between runs. A worker gets its changes through
+        :func:`apply_update`, at the start of an iteration.
+        """
+        entry = self._entry(component)
+        tunable = entry.component.params.declared.get(name)
+        if tunable is None:
+            known = ", ".join(entry.component.params.declared) or "none"
+            raise ConfigurationError(
+                f"component {entry.spec.full_name!r} has no tunable parameter {name!r} "
+                f"(it declares: {known})"
+            )
+        value = tunable.spec.validate(value)
+        tunable._apply(value)
+        return value
+
+    def set_log_level(self, component: str, level: int | str) -> None:
+        """Records below ``level`` are dropped where they are made (never queued)."""
+        self._entry(component).component.log.set_level(level)
+
+    def apply_update(
+        self, kind: int, component: str, name: str, value: Any
+    ) -> TransitionOutcome | None:
+        """Apply an update the supervisor validated (a worker, between two iterations).
+
+        A lifecycle transition (``name`` the transition) returns its outcome.
+        """
+        if kind == LIFECYCLE:
+            return self.change_state(component, name)
+        entry = self._loaded.get(component)
+        if entry is None:  # unloaded after the supervisor sent it: nothing to change
+            return None
+        if kind == PARAMETER:
+            tunable = entry.component.params.declared.get(name)
+            if tunable is not None:
+                tunable._apply(value)
+        elif kind == LOG_LEVEL:
+            entry.component.log.level = int(value)
+        return None
+
+    # -- lifecycle ------------------------------------------------------------------
+    def lifecycle_state(self, name: str) -> str:
+        """A loaded component's lifecycle state: ``active``, ``inactive``, ``unconfigured``
+        or ``finalized`` (a ROS 2 managed node's labels)."""
+        return STATE_LABELS[self._entry(name).state]
+
+    def change_state(self, name: str, transition: int | str) -> TransitionOutcome:
+        """Run one component's lifecycle transition; the others go on as they were.
+
+        ``transition`` is a label (``configure``, ``cleanup``, ``activate``,
+        ``deactivate``, ``shutdown``) or a lifecycle_msgs id. It never raises: the
+        outcome says what happened (``ok``, ``end``, ``reason``), and the runner logs it
+        under the component's name. While the loop runs, call it between iterations:
+        from ``on_iteration``, or (a worker) as an update at the start of an iteration,
+        where the new plan already applies to that iteration. Between runs it applies
+        at once. The hooks it runs may use ``self.log.nonrt``.
+        """
+        full = normalize_namespace(name) if name.startswith("/") else join("/", name)
+        entry = self._loaded.get(full)
+        if entry is None:
+            known = ", ".join(self._loaded) or "none"
+            return refused(UNKNOWN, f"component {full!r} is not loaded (loaded: {known})")
+        if isinstance(transition, str) and transition.isdigit():
+            transition = int(transition)
+        tid = resolve_transition(entry.state, transition)
+        if tid is None:
+            allowed = ", ".join(
+                f"{d.label} [{d.transition}]" for d in available_transitions(entry.state)
+            )
+            outcome = refused(
+                entry.state,
+                f"component {full!r} is {STATE_LABELS[entry.state]}: no transition "
+                f"{transition!r} from there (available: {allowed or 'none'})",
+            )
+        else:
+            running = self.state.running
+            self.state.running = False  # hooks, not update: self.log.nonrt is fine
+            try:
+                outcome = self._transition(entry, tid)
+            finally:
+                self.state.running = running
+        level = LogLevel.INFO if outcome.ok else LogLevel.ERROR
+        s = self.state
+        self._log_emit(level, full, "lifecycle: " + outcome.describe(), s.iteration, s.time_ns)
+        if outcome.result != REFUSED:
+            self._announce(full, outcome)
+        return outcome
+
+    def _announce(self, name: str, outcome: TransitionOutcome) -> None:
+        for listener in self.transition_listeners:
+            listener(name, outcome)
+
+    def _transition(self, entry: _Loaded, tid: int) -> TransitionOutcome:
+        _, start, via = REQUESTS[tid]
+        entry.autostart = False  # from now on it stays where it was put
+        entry.state = via
+        if start == ACTIVE:
+            self._replan()  # out of the schedule before its hooks run
+        cleanup_tried = False
+        if tid == CONFIGURE:
+            result, reason = self._reconfigure(entry)
+        elif tid == CLEANUP:
+            result, reason = self._hook(entry, "cleanup")
+            cleanup_tried = True
+        elif tid == ACTIVATE:
+            result, reason = self._hook(entry, "start")
+        elif tid == DEACTIVATE:
+            result, reason = self._hook(entry, "stop")
+        else:  # shutdown: every hook the component needs, whatever one returned
+            result, reason = SUCCESS, ""
+            if start == ACTIVE:
+                result, reason = self._hook(entry, "stop")
+            if start != UNCONFIGURED and result != ERROR:
+                cleaned, why = self._hook(entry, "cleanup")
+                cleanup_tried = True
+                if cleaned != SUCCESS:
+                    result, reason = cleaned, "; ".join(r for r in (reason, why) if r)
+        _, end = RESULTS[(via, result)]
+        error_result = ""
+        if end == ERRORPROCESSING:
+            entry.state = ERRORPROCESSING
+            if cleanup_tried:
+                error_result = FAILURE
+                reason += "; error processing: cleanup() failed already, so it is finalized"
+            else:
+                error_result, why = self._hook(entry, "cleanup")
+                if why:
+                    reason += "; error processing: " + why
+            end = RESULTS[(ERRORPROCESSING, error_result)][1]
+        entry.state = end
+        if end == ACTIVE or start == ACTIVE:
+            self._replan()
+        return TransitionOutcome(tid, start, end, result, error_result, reason)
+
+    def _hook(self, entry: _Loaded, hook: str) -> tuple[str, str]:
+        """Run a lifecycle hook: success, failure (returned False) or error (raised)."""
+        try:
+            self._observe(entry.spec.full_name, hook)
+            ok = getattr(entry.component, hook)()
+        except Exception as exc:
+            return ERROR, f"{hook}() raised {type(exc).__name__}: {exc}"
+        if ok is False:
+            return FAILURE, f"{hook}() returned False"
+        return SUCCESS, ""
+
+    def _reconfigure(self, entry: _Loaded) -> tuple[str, str]:
+        """configure() again: it must declare the ports and tunables of the first time."""
+        comp = entry.component
+        params = comp.params
+        first = params.declared
+        comp._rtcf_redeclared = set()
+        comp._rtcf_configured = False
+        params.previous, params.declared, params.sealed = first, {}, False
+        try:
+            result, reason = self._hook(entry, "configure")
+            if result == SUCCESS:
+                ports = set(comp._rtcf_inputs) | set(comp._rtcf_outputs)
+                missing = [f"port {n!r}" for n in sorted(ports - comp._rtcf_redeclared)]
+                missing += [
+                    f"tunable parameter {n!r}" for n in sorted(set(first) - set(params.declared))
+                ]
+                if missing:
+                    result, reason = ERROR, (
+                        f"configure() did not declare {', '.join(missing)} again; configured "
+                        "again, a component must declare the same ports and tunable parameters"
+                    )
+        finally:
+            comp._rtcf_redeclared = None
+            comp._rtcf_configured = True
+            params.previous, params.declared, params.sealed = None, first, True
+        return result, reason
+
+    def _replan(self) -> None:
+        """Swap in the plan of the active components (between iterations)."""
+        executor = self._executor
+        if executor is not None:
+            loaded = self._loaded
+            executor.set_active([loaded[n].state == ACTIVE for n in self._schedule])
+
+    def activate(self) -> None:
+        """Allow the loop to run (mode ``wait_for_trigger``; the original's activate_rt_loop)."""
+        self._triggered = True
+
+    def deactivate(self) -> None:
+        self._triggered = False
+
+    @property
+    def ready(self) -> bool:
+        """Whether the mode lets the loop run now."""
+        return self.not_ready_reason() is None
+
+    def not_ready_reason(self) -> str | None:
+        s, n = self.settings, len(self._loaded)
+        if n == 0:
+            return "no component is loaded"
+        if s.mode == "wait_for_components" and n < s.num_components_expected:
+            return (
+                f"mode wait_for_components: {n} of the {s.num_components_expected} expected "
+                "components are loaded (num_components_expected)"
+            )
+        if s.mode == "wait_for_trigger" and not self._triggered:
+            return "mode wait_for_trigger: the loop has not been activated"
+        return None
+
+    # -- resolving ------------------------------------------------------------
+    def _invalidate(self) -> None:
+        if self.state.running:
+            # loading or unloading stops the loop: it must not call a stale schedule
+            self.stop_flag.set()
+        self._graph = None
+        if self._executor is not None:
+            self._previous = self._executor
+        self._executor = None
+
+    def fallbacks(self) -> dict[str, str]:
+        """Loaded fallback components and the component each stands in for (on_error)."""
+        return {
+            e.spec.policy.fallback: name
+            for name, e in self._loaded.items()
+            if e.spec.policy.fallback in self._loaded and e.spec.policy.fallback != name
+        }
+
+    def graph_nodes(self) -> list[GraphNode]:
+        """A node per component; a fallback's inputs count as its primary's (it runs in
+        the primary's place in the order, and writes the primary's outputs)."""
+        fallbacks = self.fallbacks()
+        extra: dict[str, list[PortInfo]] = {}
+        for fb, primary in fallbacks.items():
+            comp = self._loaded[fb].component
+            extra[primary] = [_info(primary, p) for p in comp._rtcf_inputs.values()]
+        nodes = []
+        for full, entry in self._loaded.items():
+            if full in fallbacks:
+                continue
+            comp = entry.component
+            nodes.append(
+                GraphNode(
+                    name=full,
+                    inputs=[_info(full, p) for p in comp._rtcf_inputs.values()]
+                    + extra.get(full, []),
+                    outputs=[_info(full, p) for p in comp._rtcf_outputs.values()],
+                    is_first=entry.spec.is_first,
+                    ignore_pattern=entry.ignore,
+                    label=type(comp).__name__,
+                )
+            )
+        return nodes
+
+    @property
+    def graph(self) -> Graph:
+        """The resolved data-flow graph (built on demand after loads and unloads)."""
+        if self._graph is None:
+            graph = build_graph(self.graph_nodes())
+            for fb, primary in self.fallbacks().items():  # right after what it stands in for
+                graph.order.insert(graph.order.index(primary) + 1, fb)
+            self._graph = graph
+        return self._graph
+
+    @property
+    def order(self) -> list[str]:
+        return list(self.graph.order)
+
+    def _compile(self) -> Executor:
+        graph = self.graph
+        fallbacks = self.fallbacks()
+        outputs = {
+            p.topic: p
+            for n, e in self._loaded.items()
+            if n not in fallbacks
+            for p in e.component._rtcf_outputs.values()
+        }
+        for entry in self._loaded.values():
+            for port in entry.component._rtcf_inputs.values():
+                port._connect(outputs.get(port.topic))
+        for fb in fallbacks:  # a fallback writes its primary's outputs: the same slots
+            for out in self._loaded[fb].component._rtcf_outputs.values():
+                if out.topic in outputs:
+                    out._slot = outputs[out.topic]._slot
+        # components whose update is not overridden cost nothing in the loop
+        scheduled = [n for n in graph.order if overrides(self._loaded[n].component, "update")]
+        self._schedule = scheduled
+        executor = Executor(
+            [self._loaded[n].component.update for n in scheduled],
+            self.clock,
+            self.state,
+            wait_policy=self.settings.wait_policy,
+        )
+        frequency = self.settings.frequency
+        dividers = [self._loaded[n].spec.rate.divider(frequency, n) for n in scheduled]
+        costs = [self._loaded[n].spec.rate.cost_us for n in scheduled]
+        self._rates = spread(scheduled, dividers, costs)
+        executor.set_rates(
+            self._rates, [self._loaded[n].state == ACTIVE for n in scheduled]
+        )
+        if self.running_cell is not None:
+            executor.running = self.running_cell
+        executor.max_consecutive_overruns = self.settings.max_consecutive_overruns
+        executor.max_overruns_per_second = self.settings.max_overruns_per_second
+        previous = self._executor or self._previous
+        if previous is not None:  # keep time on the same grid as the iterations before
+            executor.origin_ns = previous.origin_ns
+            executor.next_deadline_ns = previous.next_deadline_ns
+        return executor
+
+    def start_components(self) -> None:
+        """Activate (``start``) the components loaded since the loop last started, in
+        execution order; ``run`` does it first. One that a lifecycle transition left
+        inactive stays so."""
+        if self._executor is None:
+            self._executor = self._compile()
+        started = False
+        standing_by = self.fallbacks()  # a fallback starts when its primary fails
+        for name in self.graph.order:
+            entry = self._loaded[name]
+            if entry.state != INACTIVE or not entry.autostart or name in standing_by:
+                continue
+            try:
+                self._observe(name, "start")
+                ok = entry.component.start()
+            except Exception as exc:
+                self.drain_logs()
+                raise ComponentError(
+                    f"component {name!r}: start() raised {type(exc).__name__}: {exc}",
+                    component=name,
+                ) from exc
+            if ok is False:
+                self.drain_logs()
+                raise ComponentError(f"component {name!r}: start() returned False", component=name)
+            entry.state = ACTIVE
+            started = True
+            self._announce(name, TransitionOutcome(ACTIVATE, INACTIVE, ACTIVE, SUCCESS))
+        if started:
+            self._replan()
+        self.drain_logs()
+
+    # -- running ------------------------------------------------------------
+    def run(
+        self,
+        iterations: int | None = None,
+        *,
+        on_iteration: Callable[[], object] | None = None,
+        drain_logs_every_iteration: bool = True,
+        timing_ring: Ring | None = None,
+        feeders: Sequence[Callable[[], object]] = (),
+    ) -> RunResult:
+        """Run the loop for ``iterations`` iterations, or until :meth:`request_stop`.
+
+        Timing rows go to ``timing_ring`` when given (a worker's shared memory, which
+        the supervisor aggregates); otherwise to a ring in this process, aggregated
+        here. When an update raises, the component's failure policy applies
+        (:mod:`rtcf._core._faults`): under ``stop`` (the default) every active
+        component's ``safe_stop`` runs and ComponentError names the component and the
+        iteration; ``deactivate`` and ``restart`` contain the failure and the loop goes
+        on. A watchdog that fires, or a stop word set to ABORT (a signal), also runs
+        the safe stops; the first raises LoopError. The components stay loaded (call
+        :meth:`shutdown`).
+        """
+        reason = self.not_ready_reason()
+        if reason is not None:
+            raise ConfigurationError(f"runner {self.name!r} cannot run: {reason}")
+        if self._executor is None:
+            self._executor = self._compile()
+        executor = self._executor
+        self.start_components()
+        aggregate = None
+        if timing_ring is None:
+            timing_ring = local_ring(len(self._schedule), self._timing_capacity)
+            aggregate = TimingAggregate()
+        writer = TimingWriter(self._schedule, timing_ring)
+        executor.timing = writer
+        executor.feeders = tuple(feeders)
+        executor.idle = self._idle_hook(
+            on_iteration, drain_logs_every_iteration, aggregate, timing_ring
+        )
+        if self._owns_stop_flag:
+            self.stop_flag.clear()
+        ran = 0
+        faults_before = len(self.faults)
+        self.safe_stops = []
+        try:
+            while True:
+                first = self.state.iteration + 1
+                try:
+                    left = None if iterations is None else iterations - ran
+                    ran += executor.run(left, self.stop_flag)
+                    break
+                except UpdateFailure as failure:
+                    ran += failure.iteration - first + 1  # the failed one used its slot
+                    self._contain(failure)  # raises when the loop must end
+                    if iterations is not None and ran >= iterations:
+                        break
+        except WatchdogTripped as trip:
+            self.drain_logs()
+            self.safe_stop(trip.describe())
+            raise LoopError(f"runner {self.name!r}: {trip.describe()}") from None
+        finally:
+            executor.idle = None
+            executor.timing = None
+            executor.feeders = ()
+            writer.release()
+        self.drain_logs()
+        stopped_by = "count" if iterations is not None and ran >= iterations else "stop"
+        if self.stop_flag.cell[0] == ABORT:
+            stopped_by = "abort"
+            self.safe_stop("the loop was stopped abnormally (a signal, or the supervisor)")
+        if aggregate is not None:
+            aggregate.finish(timing_ring, self._schedule)
+            timing = aggregate.summary(writer.count, writer.overruns)
+        else:
+            timing = TimingSummary(iterations=writer.count, samples=0, overruns=writer.overruns)
+        return RunResult(
+            iterations=ran,
+            stopped_by=stopped_by,
+            timing=timing,
+            order=list(self.graph.order),
+            log_records_dropped=self.log_ring.dropped,
+            simulated=bool(getattr(self.clock, "simulated", False)),
+            faults=self.faults[faults_before:],
+            safe_stops=list(self.safe_stops),
+        )
+
+    def _observe(self, component: str, hook: str) -> None:
+        if self.hook_observer is not None:
+            self.hook_observer(component, hook)
+
+    # -- faults ---------------------------------------------------------------
+    def _contain(self, failure: UpdateFailure) -> None:
+        """Apply the failed component's policy; raise ComponentError if the loop ends."""
+        self.drain_logs()
+        name = self._schedule[failure.index]
+        entry = self._loaded[name]
+        exc = failure.error
+        error = type(exc).__name__ + (f": {exc}" if str(exc) else "")
+        policy = entry.spec.policy
+        fatal = not isinstance(exc, Exception)  # SystemExit, KeyboardInterrupt: always stop
+        if fatal or policy.on_error not in (ON_ERROR_DEACTIVATE, ON_ERROR_RESTART):
+            self.safe_stop(f"component {name!r} failed")
+            raise ComponentError(
+                f"component {name!r}: update() raised {error} "
+                f"at iteration {failure.iteration} (t={failure.time_ns * 1e-9:.6f} s); "
+                "the loop was stopped",
+                component=name,
+            ) from exc
+        if policy.on_error == ON_ERROR_RESTART and entry.restarts < policy.max_restarts:
+            entry.restarts += 1
+            if self._restart(name):
+                self._record(Fault(name, failure.iteration, error, "restarted"))
+                return
+        self._take_out(name, failure.iteration, error, policy)
+
+    def _restart(self, name: str) -> bool:
+        """Clean up, configure and start a component again (lifecycle transitions)."""
+        for transition in ("deactivate", "cleanup", "configure", "activate"):
+            if not self.change_state(name, transition).ok:
+                return False
+        return True
+
+    def _take_out(self, name: str, iteration: int, error: str, policy: FailurePolicy) -> None:
+        """Take ``name`` and what reads its outputs out of the schedule; safe-stop them."""
+        edges = [(e.producer.component, e.consumer.component) for e in self.graph.edges]
+        order = self.graph.order
+        fallback = policy.fallback if policy.fallback in self._loaded else ""
+        if fallback and self._loaded[fallback].state != INACTIVE:
+            fallback = ""  # not ready to take over (failed itself, or unconfigured)
+        # with a fallback, what reads the failed component's outputs goes on
+        affected = [name] if fallback else downstream(name, edges)
+        victims = [n for n in affected if n == name or self._loaded[n].state == ACTIVE]
+        taken = []
+        for n in victims:
+            entry = self._loaded[n]
+            entry.autostart = False
+            if entry.state == ACTIVE:
+                entry.state = INACTIVE
+                taken.append(n)
+        self._replan()
+        for n in taken:  # as a deactivation (safe_stop runs, not stop)
+            why = f"on_error: deactivate, after {name!r} failed: {error}"
+            self._announce(n, TransitionOutcome(DEACTIVATE, ACTIVE, INACTIVE, SUCCESS, "", why))
+        self._run_safe_stops(sorted(victims, key=order.index, reverse=True))
+        if fallback and not self.change_state(fallback, "activate").ok:
+            fallback = ""
+        self._record(Fault(name, iteration, error, "deactivated", victims, fallback))
+
+    def _record(self, fault: Fault) -> None:
+        self.faults.append(fault)
+        s = self.state
+        self._log_emit(LogLevel.ERROR, fault.component, fault.describe(), s.iteration, s.time_ns)
+        if self.on_fault is not None:
+            self.on_fault(fault)
+
+    def safe_stop(self, reason: str = "") -> list[SafeStopOutcome]:
+        """Run every active component's ``safe_stop``, last in the order first.
+
+        Each runs on its own: one that raises or returns False is reported and the
+        others still run. The outcomes are returned, logged, and kept in
+        :attr:`safe_stops` (and in the run's result).
+        """
+        try:
+            order = self.graph.order
+        except RtcfError:
+            order = list(self._loaded)
+        names = [n for n in reversed(order) if self._loaded[n].state == ACTIVE]
+        if reason:
+            s = self.state
+            self._log_emit(
+                LogLevel.WARNING, self.name, f"safe stop: {reason}", s.iteration, s.time_ns
+            )
+        return self._run_safe_stops(names)
+
+    def _run_safe_stops(self, names: Sequence[str]) -> list[SafeStopOutcome]:
+        outcomes = []
+        running = self.state.running
+        self.state.running = False  # a hook, not update: self.log.nonrt is fine
+        try:
+            for name in names:
+                component = self._loaded[name].component
+                if not overrides(component, "safe_stop"):
+                    continue
+                try:
+                    self._observe(name, "safe_stop")
+                    ok = component.safe_stop()
+                    outcome = SafeStopOutcome(name, ok is not False, "returned False")
+                except BaseException as exc:  # each runs on its own, whatever it raised
+                    outcome = SafeStopOutcome(
+                        name, False, f"raised {type(exc).__name__}: {exc}"
+                    )
+                if outcome.ok:
+                    outcome.detail = ""
+                outcomes.append(outcome)
+                s = self.state
+                level = LogLevel.INFO if outcome.ok else LogLevel.ERROR
+                self._log_emit(level, name, outcome.describe(), s.iteration, s.time_ns)
+        finally:
+            self.state.running = running
+        self.safe_stops.extend(outcomes)
+        self.drain_logs()
+        return outcomes
+
+    def _idle_hook(
+        self,
+        on_iteration: Callable[[], object] | None,
+        drain: bool,
+        aggregate: TimingAggregate | None,
+        timing_ring: Ring,
+    ) -> Callable[[], object] | None:
+        ring = self.log_ring if isinstance(self.log_ring, LogRing) else None
+        sink = self.log_sink
+        names = self._schedule
+        half = timing_ring.capacity // 2
+        if not drain and aggregate is None:
+            return on_iteration
+
+        def idle() -> None:
+            if drain and ring is not None and len(ring):
+                ring.drain(sink, 64)
+            if aggregate is not None and len(timing_ring) >= half:
+                aggregate.consume(timing_ring, names)
+            if on_iteration is not None:
+                on_iteration()
+
+        return idle
+
+    def request_stop(self) -> None:
+        """End the loop after the current iteration (safe from a signal handler)."""
+        self.stop_flag.set()
+
+    def mapped_ports(self) -> tuple[list[OutputPort[Any]], list[InputPort[Any]]]:
+        """Outputs whose topic maps to the middleware, and mapped inputs nothing here feeds.
+
+        An input whose topic a component inside the runner produces is never fed from
+        the middleware: that would be a second, non-real-time writer.
+        """
+        if self._executor is None:
+            self._executor = self._compile()
+        maps = self.settings.maps_to_ros
+        comps = [e.component for e in self._loaded.values()]
+        outputs = [p for c in comps for p in c._rtcf_outputs.values() if maps(p.topic)]
+        inputs = [
+            p
+            for c in comps
+            for p in c._rtcf_inputs.values()
+            if p.producer is None and maps(p.topic)
+        ]
+        return outputs, inputs
+
+    def rate_plan(self) -> tuple[list[str], float] | None:
+        """The multi-rate plan as a table (phase x components) and its worst iteration's
+        declared cost, or None when every component runs every iteration."""
+        if self._executor is None:
+            self._executor = self._compile()
+        if all(every == 1 for every, _ in self._rates):
+            return None
+        costs = [self._loaded[n].spec.rate.cost_us for n in self._schedule]
+        return plan_table(self._schedule, self._rates, costs)
+
+    @property
+    def schedule(self) -> list[str]:
+        """Components whose update the loop calls, in order (those that override it)."""
+        if self._executor is None:
+            self._executor = self._compile()
+        return list(self._schedule)
+
+    def drain_logs(self) -> int:
+        ring = self.log_ring
+        return ring.drain(self.log_sink) if isinstance(ring, LogRing) else 0
+
+    def _emit_now(self, level: int, logger: str, text: str, iteration: int, time_ns: int) -> None:
+        """Non-real-time logging in this process: after what the ring holds, in order."""
+        self.drain_logs()
+        self.log_sink(LogRecord(level, logger, text, iteration, time_ns))
+
+    def shutdown(self) -> list[ComponentError]:
+        """Stop and clean up every component, last in the order first.
+
+        Every hook runs even if another one fails; the failures are returned.
+        """
+        try:
+            order = self.graph.order
+        except RtcfError:
+            order = list(self._loaded)
+        entries = [self._loaded[n] for n in reversed(order) if n in self._loaded]
+        self._loaded.clear()
+        self._invalidate()
+        return self._teardown(entries)
+
+    def _teardown(self, entries: Iterable[_Loaded]) -> list[ComponentError]:
+        errors: list[ComponentError] = []
+        for entry in entries:
+            name = entry.spec.full_name
+            hooks = _TEARDOWN.get(entry.state, ())
+            for hook in hooks:
+                try:
+                    self._observe(name, hook)
+                    getattr(entry.component, hook)()
+                except Exception as exc:
+                    err = ComponentError(
+                        f"component {name!r}: {hook}() raised {type(exc).__name__}: {exc}",
+                        component=name,
+                    )
+                    err.__cause__ = exc
+                    errors.append(err)
+            entry.state = FINALIZED
+        self.drain_logs()
+        return errors
+
+
+# what unloading or shutting down runs, by lifecycle state (a transition state: a hook
+# of it failed and error processing is under way; nothing more runs then)
+_TEARDOWN = {ACTIVE: ("stop", "cleanup"), INACTIVE: ("cleanup",)}
+
+
+def _port_info(port: Any) -> dict[str, Any]:
+    return {"name": port.name, "topic": port.topic, "type": type_name(port.type)}
+
+
+def _info(component: str, port: Any) -> PortInfo:
+    return PortInfo(component, port.name, port.topic, port.type)

@@ -1,0 +1,238 @@
+"""The runner's parameters, with the names and meanings of the original rt_runner."""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+from ._errors import ConfigurationError
+
+MODES = ("wait_for_components", "no_wait", "wait_for_trigger")
+RELIABILITIES = ("reliable", "best_effort")
+DURABILITIES = ("volatile", "transient_local")
+WAIT_POLICIES = ("absolute", "relative")
+DEFAULT_FREQUENCY = 1.0
+
+
+@dataclass
+class RunnerSettings:
+    """How a runner runs its loop.
+
+    ``mode``: ``no_wait`` starts the loop as soon as a component is loaded and
+    restarts it after every load and unload; ``wait_for_components`` starts it once
+    ``num_components_expected`` components are loaded; ``wait_for_trigger`` starts
+    it on ``activate()`` (a service call under ROS).
+    ``wait_policy``: ``absolute`` keeps every iteration on the grid of the first
+    (late iterations run back to back until the loop has caught up); ``relative``
+    re-anchors the grid after an overrun: the next start is one period after it ended.
+    ``ros_mapping_whitelist``/``ros_mapping_blacklist``: full-match regexes on topic
+    names that choose the ports mapped to middleware topics.
+    ``ros_qos_depth``/``ros_qos_reliability``/``ros_qos_durability``: the QoS of the
+    mapped topics (ROS 1 uses the depth as queue_size and transient_local as latch).
+    ``iteration_info``: publish ``~/iteration_info`` (one message per iteration).
+    ``max_consecutive_overruns``/``max_overruns_per_second``: watchdogs that end the
+    loop through the safe-stop path past that many overruns (0: off).
+    ``hook_timeout``: seconds a ``configure``/``start``/``stop``/``cleanup``/``safe_stop``
+    hook may take; past it the supervisor names the hook and ends the run.
+    ``heartbeat_timeout``: seconds the worker waits for a sign of life from its
+    supervisor while the loop runs before it stops through the safe-stop path (0: off).
+    """
+
+    mode: str = "no_wait"
+    num_components_expected: int = 0
+    frequency: float = DEFAULT_FREQUENCY
+    wait_policy: str = "absolute"
+    ros_mapping_whitelist: str = ""
+    ros_mapping_blacklist: str = ""
+    lock_memory: bool = False
+    safe_heap_size_kB: int = 0
+    safe_stack_size_kB: int = 0
+    cpu_affinity_mask: int = 0  # 0: leave the affinity as it is
+    priority: int = 80
+    use_sim_time: bool = False  # the loop follows the middleware's /clock
+    # what ``ros2 topic pub/echo`` use by default, so the usual tools connect
+    ros_qos_depth: int = 10
+    ros_qos_reliability: str = "reliable"
+    ros_qos_durability: str = "volatile"
+    iteration_info: bool = True
+    max_consecutive_overruns: int = 0
+    max_overruns_per_second: int = 0
+    hook_timeout: float = 10.0
+    heartbeat_timeout: float = 5.0
+    notes: list[str] = field(default_factory=list, compare=False)
+
+    def __post_init__(self) -> None:
+        self.validate()
+
+    @property
+    def period_ns(self) -> int:
+        return round(1e9 / self.frequency)
+
+    def maps_to_ros(self, topic: str) -> bool:
+        """Whether ``topic`` matches the whitelist and not the blacklist."""
+        if not self.ros_mapping_whitelist or not re.fullmatch(self.ros_mapping_whitelist, topic):
+            return False
+        return not (self.ros_mapping_blacklist and re.fullmatch(self.ros_mapping_blacklist, topic))
+
+    def validate(self, where: str = "runner") -> None:
+        def bad(msg: str) -> ConfigurationError:
+            return ConfigurationError(f"{where}: {msg}")
+
+        if self.mode not in MODES:
+            raise bad(f"mode {self.mode!r} is unknown; use one of {', '.join(MODES)}")
+        if self.mode == "wait_for_components" and self.num_components_expected <= 0:
+            raise bad("mode 'wait_for_components' needs num_components_expected, a number above 0")
+        if not (self.frequency > 0 and self.frequency < 1e6):
+            raise bad(f"frequency {self.frequency!r} Hz is not feasible; use a value in (0, 1e6)")
+        if self.wait_policy not in WAIT_POLICIES:
+            raise bad(f"wait_policy {self.wait_policy!r} is unknown; use absolute or relative")
+        for key in ("ros_mapping_whitelist", "ros_mapping_blacklist"):
+            pattern = getattr(self, key)
+            try:
+                re.compile(pattern)
+            except re.error as exc:
+                raise bad(f"{key} {pattern!r} is not a valid regular expression: {exc}") from None
+        for key in ("safe_heap_size_kB", "safe_stack_size_kB", "cpu_affinity_mask"):
+            if getattr(self, key) < 0:
+                raise bad(f"{key} must not be negative")
+        if self.ros_qos_depth < 1:
+            raise bad(f"ros_qos_depth {self.ros_qos_depth} must be at least 1")
+        if self.ros_qos_reliability not in RELIABILITIES:
+            raise bad(
+                f"ros_qos_reliability {self.ros_qos_reliability!r} is unknown; "
+                "use reliable or best_effort"
+            )
+        if self.ros_qos_durability not in DURABILITIES:
+            raise bad(
+                f"ros_qos_durability {self.ros_qos_durability!r} is unknown; "
+                "use volatile or transient_local"
+            )
+        for key in ("max_consecutive_overruns", "max_overruns_per_second"):
+            if getattr(self, key) < 0:
+                raise bad(f"{key} must not be negative (0 turns the watchdog off)")
+        if not self.hook_timeout > 0:
+            raise bad(f"hook_timeout {self.hook_timeout!r} s must be above 0")
+        if self.heartbeat_timeout < 0:
+            raise bad(f"heartbeat_timeout {self.heartbeat_timeout!r} s must not be negative")
+        if not 1 <= self.priority <= 99:
+            raise bad(f"priority {self.priority} is out of range; SCHED_FIFO takes 1 to 99")
+
+    @classmethod
+    def from_params(cls, params: Mapping[str, Any], where: str = "runner") -> RunnerSettings:
+        """Read settings from a runner node's private parameters (unknown ones noted)."""
+        notes: list[str] = []
+        values: dict[str, Any] = {}
+        for key, value in params.items():
+            if key not in _CONVERTERS:
+                if key not in _IGNORED:
+                    notes.append(
+                        f"{where}: unknown parameter {key!r} ignored; known are "
+                        + ", ".join(sorted(_CONVERTERS))
+                    )
+                continue
+            try:
+                values[key] = _CONVERTERS[key](value)
+            except (TypeError, ValueError):
+                raise ConfigurationError(
+                    f"{where}: parameter {key!r} has value {value!r}, which is not {_EXPECTED[key]}"
+                ) from None
+        if "mode" not in values:
+            notes.append(f"{where}: no mode given, using 'no_wait'")
+        if "frequency" not in values:
+            notes.append(f"{where}: no frequency given, using {DEFAULT_FREQUENCY} Hz")
+        if "mode" in values:
+            values["mode"] = values["mode"].lower()
+        settings = cls.__new__(cls)
+        for f in cls.__dataclass_fields__.values():
+            if f.name != "notes":
+                setattr(settings, f.name, values.get(f.name, cls._default(f.name)))
+        settings.notes = notes
+        settings.validate(where)
+        return settings
+
+    @staticmethod
+    def _default(name: str) -> Any:
+        return RunnerSettings.__dataclass_fields__[name].default
+
+
+def _to_bool(v: Any) -> bool:
+    if isinstance(v, bool):
+        return v
+    if isinstance(v, str) and v.lower() in ("true", "1", "false", "0"):
+        return v.lower() in ("true", "1")
+    if isinstance(v, int):
+        return bool(v)
+    raise ValueError(v)
+
+
+def _to_int(v: Any) -> int:
+    if isinstance(v, bool):
+        raise ValueError(v)
+    if isinstance(v, str):
+        text = v.strip().lower()
+        return int(text, 16) if text.startswith("0x") else int(text, 10)
+    if isinstance(v, float) and not v.is_integer():
+        raise ValueError(v)
+    return int(v)
+
+
+def _to_float(v: Any) -> float:
+    if isinstance(v, bool):
+        raise ValueError(v)
+    return float(v)
+
+
+def _to_str(v: Any) -> str:
+    if not isinstance(v, str):
+        raise ValueError(v)
+    return v
+
+
+_CONVERTERS = {
+    "mode": _to_str,
+    "num_components_expected": _to_int,
+    "frequency": _to_float,
+    "wait_policy": _to_str,
+    "ros_mapping_whitelist": _to_str,
+    "ros_mapping_blacklist": _to_str,
+    "lock_memory": _to_bool,
+    "safe_heap_size_kB": _to_int,
+    "safe_stack_size_kB": _to_int,
+    "cpu_affinity_mask": _to_int,
+    "priority": _to_int,
+    "use_sim_time": _to_bool,
+    "ros_qos_depth": _to_int,
+    "ros_qos_reliability": _to_str,
+    "ros_qos_durability": _to_str,
+    "iteration_info": _to_bool,
+    "max_consecutive_overruns": _to_int,
+    "max_overruns_per_second": _to_int,
+    "hook_timeout": _to_float,
+    "heartbeat_timeout": _to_float,
+}
+_EXPECTED = {
+    "mode": "a string",
+    "num_components_expected": "an integer",
+    "frequency": "a number",
+    "wait_policy": "a string",
+    "ros_mapping_whitelist": "a string (a regular expression)",
+    "ros_mapping_blacklist": "a string (a regular expression)",
+    "lock_memory": "true or false",
+    "safe_heap_size_kB": "an integer",
+    "safe_stack_size_kB": "an integer",
+    "cpu_affinity_mask": "an integer bit mask",
+    "priority": "an integer",
+    "use_sim_time": "true or false",
+    "ros_qos_depth": "an integer",
+    "ros_qos_reliability": "reliable or best_effort",
+    "ros_qos_durability": "volatile or transient_local",
+    "iteration_info": "true or false",
+    "max_consecutive_overruns": "an integer",
+    "max_overruns_per_second": "an integer",
+    "hook_timeout": "a number of seconds",
+    "heartbeat_timeout": "a number of seconds",
+}
+# parameters a runner node may carry that are not settings
+_IGNORED: set[str] = set()

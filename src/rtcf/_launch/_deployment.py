@@ -1,0 +1,250 @@
+"""From a launch description to what runs: runners and the components they load.
+
+A ``<node pkg="rtcf" type="rt_runner">`` (ROS 2: ``exec="rt_runner"``) is a runner;
+its private parameters are its settings. A ``<node pkg="rtcf" type="rt_launcher"
+args="MODULE ClassName [-f|--is_first]">`` loads one component into a runner: the
+node's name, namespace and remaps become the component's, and its private
+parameters its parameters (``is_first``, ``topics_ignore_for_graph``, ``rt_package``,
+``rt_type`` and ``runner`` are read by the launcher itself).
+"""
+
+from __future__ import annotations
+
+import shlex
+from dataclasses import dataclass, field
+from typing import Any
+
+from .._core._errors import ConfigurationError, LaunchError, Location
+from .._core._faults import FailurePolicy
+from .._core._names import join, normalize_namespace
+from .._core._params import ParameterStore
+from .._core._rates import Rate
+from .._core._runner import ComponentSpec
+from .._core._settings import RunnerSettings
+from ._description import LaunchDescription, NodeDescription
+
+PACKAGE = "rtcf"
+RUNNER = "rt_runner"
+LAUNCHER = "rt_launcher"
+LAUNCHER_PARAMS = (
+    "is_first",
+    "is_sync",
+    "topics_ignore_for_graph",
+    "rt_package",
+    "rt_type",
+    "runner",
+    "on_error",
+    "max_restarts",
+    "fallback",
+    "rate",
+    "every",
+    "phase",
+    "cost_us",
+)
+
+
+@dataclass
+class RunnerDeployment:
+    name: str  # full name of the runner node
+    settings: RunnerSettings
+    location: Location
+    components: list[ComponentSpec] = field(default_factory=list)
+    # what the launch file sets in the runner node's environment (<env>), e.g.
+    # ROSCONSOLE_CONFIG_FILE; roslaunch would start the runner's process with it
+    env: dict[str, str] = field(default_factory=dict)
+
+
+@dataclass
+class Deployment:
+    source: str
+    runners: list[RunnerDeployment]
+    parameters: ParameterStore
+    other_nodes: list[NodeDescription] = field(default_factory=list)
+    warnings: list[str] = field(default_factory=list)
+
+    @property
+    def runner(self) -> RunnerDeployment:
+        """The one runner (an error if the file defines none or several)."""
+        if len(self.runners) != 1:
+            names = ", ".join(r.name for r in self.runners)
+            raise LaunchError(
+                f"defines {len(self.runners)} runners ({names}); this command runs one: "
+                "split the file, or start each runner on its own",
+                file=self.source,
+            )
+        return self.runners[0]
+
+
+def is_runner(node: NodeDescription) -> bool:
+    return node.package == PACKAGE and node.executable == RUNNER
+
+
+def is_launcher(node: NodeDescription) -> bool:
+    return node.package == PACKAGE and node.executable == LAUNCHER
+
+
+def plan(description: LaunchDescription) -> Deployment:
+    """Pick runners and launchers out of ``description`` and check what can be checked
+    without importing anything."""
+    params = description.parameters
+    warnings = list(description.warnings)
+    runners: list[RunnerDeployment] = []
+    launchers: list[NodeDescription] = []
+    others: list[NodeDescription] = []
+    for node in description.nodes:
+        if is_runner(node):
+            private = params.get(node.full_name, {})
+            private = private if isinstance(private, dict) else {}
+            where = f"rt_runner {node.full_name!r}"
+            try:
+                settings = RunnerSettings.from_params(private, where=where)
+            except LaunchError:
+                raise
+            except Exception as exc:  # ConfigurationError: add the file and line
+                raise LaunchError(
+                    str(exc), file=node.location.file, line=node.location.line
+                ) from None
+            warnings.extend(f"{node.location}: {n}" for n in settings.notes)
+            runners.append(
+                RunnerDeployment(node.full_name, settings, node.location, env=dict(node.env))
+            )
+        elif is_launcher(node):
+            launchers.append(node)
+        else:
+            others.append(node)
+            warnings.append(
+                f"{node.location}: node {node.full_name!r} ({node.package}/{node.executable}) "
+                "is not an rtcf runner or launcher; rtcf does not start it"
+            )
+    if launchers and not runners:
+        first = launchers[0].location
+        raise LaunchError(
+            "the file loads components but defines no runner; add "
+            '<node pkg="rtcf" type="rt_runner" name="rt_runner"/> with its parameters',
+            file=first.file,
+            line=first.line,
+        )
+    by_name = {r.name: r for r in runners}
+    for node in launchers:
+        spec, runner_name = _component_spec(node, params)
+        target = _pick_runner(node, runner_name, runners, by_name)
+        target.components.append(spec)
+    return Deployment(description.source, runners, params, others, warnings)
+
+
+def _component_spec(node: NodeDescription, params: ParameterStore) -> tuple[ComponentSpec, str]:
+    loc = node.location
+
+    def err(msg: str) -> LaunchError:
+        return LaunchError(f"rt_launcher {node.full_name!r}: {msg}", file=loc.file, line=loc.line)
+
+    private = params.get(node.full_name, {})
+    private = private if isinstance(private, dict) else {}
+    try:
+        words = shlex.split(node.args)
+    except ValueError as exc:
+        raise err(f"args {node.args!r} cannot be split: {exc}") from None
+    flags = [w for w in words if w.startswith("-")]
+    positional = [w for w in words if not w.startswith("-")]
+    is_first_flag = False
+    for flag in flags:
+        if flag in ("-f", "--is_first"):
+            is_first_flag = True
+        elif flag in ("-s", "--is_sync"):
+            pass  # accepted for compatibility: every component runs synchronously here
+        else:
+            raise err(f"unknown option {flag!r} in args; allowed: -f/--is_first")
+    if len(positional) > 2:
+        raise err(f'args {node.args!r} has too many words; use "MODULE ClassName [-f]"')
+    module = positional[0] if len(positional) == 2 else ""
+    class_name = positional[-1] if positional else ""
+    for key, current in (("rt_package", module), ("rt_type", class_name)):
+        if key in private:
+            if current:
+                raise err(f"{key} is given both in args and as parameter ~{key}; keep one")
+            if not isinstance(private[key], str):
+                raise err(f"parameter ~{key} must be a string")
+            if key == "rt_package":
+                module = private[key]
+            else:
+                class_name = private[key]
+    if not class_name:
+        raise err('no component class given; use args="MODULE ClassName" or parameter ~rt_type')
+    if not module:
+        if "." in class_name:
+            module, _, class_name = class_name.rpartition(".")
+        else:
+            raise err(
+                f'no module given for class {class_name!r}; use args="MODULE {class_name}" '
+                "or parameter ~rt_package"
+            )
+    is_first = is_first_flag
+    if "is_first" in private:
+        value = _as_bool(private["is_first"])
+        if value is None:
+            raise err(f"parameter ~is_first is {private['is_first']!r}; use true or false")
+        if is_first_flag and not value:
+            raise err("conflicting is_first: args has -f but parameter ~is_first is false")
+        is_first = is_first or value
+    ignore = private.get("topics_ignore_for_graph", "")
+    if not isinstance(ignore, str):
+        raise err(f"parameter ~topics_ignore_for_graph is {ignore!r}; it must be a regex string")
+    runner_name = private.get("runner", "")
+    try:
+        policy = FailurePolicy.from_params(private, node.full_name)
+        rate = Rate.from_params(private, node.full_name)
+    except ConfigurationError as exc:
+        raise err(exc.message) from None
+    spec = ComponentSpec(
+        name=node.name,
+        module=module,
+        class_name=class_name,
+        namespace=node.namespace,
+        remaps=list(node.remaps),
+        is_first=is_first,
+        topics_ignore_for_graph=ignore,
+        location=loc,
+        policy=policy,
+        rate=rate,
+    )
+    return spec, str(runner_name)
+
+
+def _pick_runner(
+    node: NodeDescription,
+    wanted: str,
+    runners: list[RunnerDeployment],
+    by_name: dict[str, RunnerDeployment],
+) -> RunnerDeployment:
+    loc = node.location
+    if wanted:
+        full = (
+            normalize_namespace(wanted) if wanted.startswith("/") else join(node.namespace, wanted)
+        )
+        for candidate in (full, normalize_namespace(wanted)):
+            if candidate in by_name:
+                return by_name[candidate]
+        raise LaunchError(
+            f"rt_launcher {node.full_name!r}: parameter ~runner names {wanted!r}, but the runners "
+            f"are {', '.join(by_name) or 'none'}",
+            file=loc.file,
+            line=loc.line,
+        )
+    if len(runners) > 1:
+        raise LaunchError(
+            f"rt_launcher {node.full_name!r}: the file has {len(runners)} runners; say which one "
+            'loads this component with <param name="runner" value="..."/>',
+            file=loc.file,
+            line=loc.line,
+        )
+    return runners[0]
+
+
+def _as_bool(value: Any) -> bool | None:
+    if isinstance(value, bool):
+        return value
+    if isinstance(value, str) and value.lower() in ("true", "false"):
+        return value.lower() == "true"
+    if isinstance(value, int):
+        return bool(value)
+    return None

@@ -1,0 +1,494 @@
+"""The ROS 2 bridge: mapped ports as ROS 2 topics, in the supervisor process only.
+
+rclpy lives here and never in the worker (../shared/design.md, decisions 1 and 2).
+A thread of the supervisor spins a node named after the runner and writes every
+message of a mapped input topic into that input's mailbox; another sleeps on the
+doorbell that the worker rings and publishes every record that the worker's output
+taps pushed. The loop picks up the newest message of a mailbox at the start of its
+next iteration. ROS message classes cross as serialized bytes (raw
+publish and raw subscriptions); float, int, bool and str become std_msgs Float64,
+Int64, Bool and String, and a 1-D float numpy array Float64MultiArray.
+
+QoS of the mapped topics: the runner's ``ros_qos_depth``, ``ros_qos_reliability``
+and ``ros_qos_durability``; by default reliable, keep last 10, volatile: what
+``ros2 topic pub/echo`` use by default, so the usual tools connect.
+
+``~/iteration_info`` carries one std_msgs/Float64MultiArray per iteration, built
+from the timing rows: ``[iteration, stamp (s), calculation duration (s), wake-up
+jitter (s)]`` (the original's rtcf_msgs/IterationInfo with standard types; the
+layout's labels name the columns). It is serialized here by hand from a template,
+so that 2 kHz of it costs the supervisor little.
+"""
+
+from __future__ import annotations
+
+import importlib
+import json
+import struct
+import threading
+import time
+from collections.abc import Callable
+from typing import TYPE_CHECKING, Any
+
+from .._core._errors import RtcfError
+from .._core._lifecycle import TransitionOutcome
+from .._core._log import LogLevel, LogRecord
+from .._core._rings import Mailbox, Ring
+from .._core._settings import RunnerSettings
+from .._core._timing import COL_CALC, COL_ITERATION, COL_JITTER, COL_SCHEDULED, TimingAggregate
+from .._runtime._doorbell import Doorbell, RungMailbox
+from .._runtime._health import health
+from .._runtime._port_channels import MappedPort, read_record
+from ._face import ComponentFace, read_only, ros_logger_name, ros_value
+
+if TYPE_CHECKING:
+    from .._runtime._supervisor import LiveStatus, WorkerRunner
+
+ITERATION_INFO_LABELS = ("iteration", "stamp", "calc_duration", "jitter")
+SPIN_TIMEOUT_S = 0.05  # how often the executor thread looks whether to end
+
+_STD = {
+    "float": ("std_msgs.msg", "Float64"),
+    "int": ("std_msgs.msg", "Int64"),
+    "bool": ("std_msgs.msg", "Bool"),
+    "str": ("std_msgs.msg", "String"),
+    "float_array": ("std_msgs.msg", "Float64MultiArray"),
+}
+
+
+def _import_rclpy() -> Any:
+    try:
+        import rclpy
+    except ImportError as exc:
+        raise RtcfError(
+            f"--middleware ros2 needs rclpy ({exc}); install ROS 2 Jazzy or "
+            "pip install 'rtcf[ros2]'"
+        ) from None
+    return rclpy
+
+
+def message_class(port: MappedPort) -> type:
+    """The ROS 2 message class a mapped port is published or subscribed as."""
+    if port.kind in _STD:
+        module, name = _STD[port.kind]
+    else:
+        package, _, name = port.type_name.split("/")
+        module = f"{package}.msg"
+    try:
+        cls: type = getattr(importlib.import_module(module), name)
+        return cls
+    except (ImportError, AttributeError) as exc:
+        raise RtcfError(
+            f"topic {port.topic}: message type {module}.{name} is not available ({exc}); "
+            "install its package (e.g. pip install ros-jazzy-std-msgs)"
+        ) from None
+
+
+def _to_message(kind: str, cls: type, payload: bytes) -> Any:
+    if kind == "float":
+        return cls(data=struct.unpack("<d", payload)[0])
+    if kind == "int":
+        return cls(data=struct.unpack("<q", payload)[0])
+    if kind == "bool":
+        return cls(data=payload != b"\x00")
+    if kind == "str":
+        return cls(data=payload.decode("utf-8", "replace"))
+    if kind == "float_array":
+        msg = cls()
+        msg.data = list(struct.unpack(f"<{len(payload) // 8}d", payload))
+        return msg
+    return payload  # already serialized: published raw
+
+
+def _from_message(kind: str, msg: Any) -> bytes:
+    if kind == "float":
+        return struct.pack("<d", float(msg.data))
+    if kind == "int":
+        return struct.pack("<q", int(msg.data))
+    if kind == "bool":
+        return b"\x01" if msg.data else b"\x00"
+    if kind == "str":
+        return str(msg.data).encode("utf-8")
+    if kind == "float_array":
+        data = list(msg.data)
+        return struct.pack(f"<{len(data)}d", *data)
+    return bytes(msg)  # a raw subscription delivers the serialized bytes
+
+
+class Ros2Bridge:
+    """A ROS 2 node for one runner; its thread moves messages between ROS and channels."""
+
+    def __init__(
+        self,
+        name: str = "rt_runner",
+        namespace: str = "/",
+        args: list[str] | None = None,
+        *,
+        node: Any = None,
+    ) -> None:
+        """Make a node of the runner's name, or use ``node`` (an rt_runner's own)."""
+        rclpy = _import_rclpy()
+        from rclpy.executors import SingleThreadedExecutor
+        from rclpy.node import Node
+
+        self._rclpy = rclpy
+        self._owns_context = node is None
+        if node is None:
+            self.context = rclpy.Context()
+            rclpy.init(args=args, context=self.context, signal_handler_options=_no_signals(rclpy))
+            node = Node(name, namespace=namespace, context=self.context)
+        else:
+            self.context = node.context
+        self.node = node
+        self.executor = SingleThreadedExecutor(context=self.context)
+        self.executor.add_node(self.node)
+        self._rosout = self.node.create_publisher(
+            _log_class(), "/rosout", _rosout_qos()
+        )
+        from diagnostic_msgs.msg import DiagnosticArray
+
+        self._diagnostics = self.node.create_publisher(DiagnosticArray, "/diagnostics", 10)
+        self._lock = threading.Lock()
+        self._open = False  # whether a run's channels are there
+        self._outputs: list[tuple[Ring, Any, Callable[[bytes], Any]]] = []
+        self._subscriptions: list[Any] = []
+        self._publishers: list[Any] = []
+        self._faces: dict[str, ComponentFace] = {}  # a node per component
+        self._qos: Any = 10
+        self._info_pub: Any = None
+        self._info_prefix = b""
+        self._use_sim_time = False
+        self._info_offset = 0
+        self._introspect_srv: Any = None
+        self._running = True
+        self.doorbell = Doorbell.create()
+        # two threads: one spins the executor (subscriptions, services, parameters),
+        # one sleeps on the doorbell and publishes what the worker's outputs pushed
+        self._thread = threading.Thread(target=self._spin, name="rtcf-ros2", daemon=True)
+        self._thread.start()
+        self._publisher = threading.Thread(
+            target=self._publish, name="rtcf-ros2-publish", daemon=True
+        )
+        self._publisher.start()
+
+    def configure(self, settings: RunnerSettings, runner: WorkerRunner) -> None:
+        """The runner's QoS for mapped topics, its iteration_info topic and its
+        ``~/introspect`` service (std_srvs/Trigger; the answer's message is JSON)."""
+        from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+        from std_srvs.srv import Trigger
+
+        def on_introspect(request: Any, response: Any) -> Any:
+            response.success = True
+            response.message = json.dumps(runner.introspect())
+            return response
+
+        if self._introspect_srv is None:
+            self._introspect_srv = self.node.create_service(
+                Trigger, "~/introspect", on_introspect
+            )
+        runner.transition_listeners.append(self._transitioned)
+
+        self._qos = QoSProfile(
+            depth=settings.ros_qos_depth,
+            reliability=ReliabilityPolicy.RELIABLE
+            if settings.ros_qos_reliability == "reliable"
+            else ReliabilityPolicy.BEST_EFFORT,
+            durability=DurabilityPolicy.TRANSIENT_LOCAL
+            if settings.ros_qos_durability == "transient_local"
+            else DurabilityPolicy.VOLATILE,
+        )
+        self._use_sim_time = settings.use_sim_time
+        # the rows hold CLOCK_MONOTONIC ns (or /clock ns); stamps are ROS time. Taken
+        # once, so that stamps are exactly one period apart
+        self._info_offset = 0
+        if not settings.use_sim_time:
+            self._info_offset = self.node.get_clock().now().nanoseconds - time.monotonic_ns()
+        if settings.iteration_info and self._info_pub is None:
+            from std_msgs.msg import Float64MultiArray
+
+            self._info_prefix = _iteration_info_prefix()
+            self._info_pub = self.node.create_publisher(
+                Float64MultiArray, "~/iteration_info", 100
+            )
+
+    def iteration_info(self, rows: Any) -> None:
+        """One message per timing row (called by the supervisor as it drains the rows)."""
+        pub = self._info_pub
+        if pub is None:
+            return
+        offset = self._info_offset
+        prefix = self._info_prefix
+        pack = _FOUR_DOUBLES.pack
+        for row in rows.tolist():
+            pub.publish(prefix + pack(
+                float(row[COL_ITERATION]),
+                (row[COL_SCHEDULED] + offset) * 1e-9,
+                row[COL_CALC] * 1e-9,
+                row[COL_JITTER] * 1e-9,
+            ))
+
+    # -- per run -------------------------------------------------------------------
+    def open(self, ports: list[MappedPort], channels: dict[str, Ring | Mailbox]) -> None:
+        with self._lock:
+            self._open = True
+            for port in ports:
+                cls = message_class(port)
+                channel = channels[port.topic]
+                if port.direction == "output":
+                    assert isinstance(channel, Ring)
+                    pub = self.node.create_publisher(cls, port.topic, self._qos)
+                    self._publishers.append(pub)
+                    kind = port.kind
+
+                    def convert(payload: bytes, kind: str = kind, cls: type = cls) -> Any:
+                        return _to_message(kind, cls, payload)
+
+                    self._outputs.append((channel, pub, convert))
+                else:
+                    assert isinstance(channel, Mailbox)
+                    self._subscriptions.append(
+                        self.node.create_subscription(
+                            cls,
+                            port.topic,
+                            self._feeder(port, channel),
+                            self._qos,
+                            raw=port.kind == "ros2",
+                        )
+                    )
+
+    def _feeder(self, port: MappedPort, box: Mailbox) -> Callable[[Any], None]:
+        kind = port.kind
+
+        def on_message(msg: Any) -> None:
+            payload = _from_message(kind, msg)
+            with self._lock:  # the run may have closed its channels meanwhile
+                if self._open and len(payload) <= box.size:
+                    box.write(payload)
+
+        return on_message
+
+    def log(self, rec: LogRecord) -> None:
+        """Publish a component's log record on /rosout (rqt_console shows it)."""
+        from rcl_interfaces.msg import Log
+
+        msg = Log()
+        msg.stamp = self.node.get_clock().now().to_msg()
+        msg.level = min(max(int(rec.level), 10), 50)  # the numbers of ROS 2's levels
+        msg.name = ros_logger_name(rec.logger)
+        msg.msg = rec.format()
+        msg.function = "update" if rec.iteration >= 0 else ""
+        self._rosout.publish(msg)
+
+    def diagnostics(self, runner: str, status: LiveStatus, aggregate: TimingAggregate) -> None:
+        """A timing and health summary on /diagnostics (rqt_runtime_monitor shows it)."""
+        from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+
+        h = health(runner, status, aggregate)
+        st = DiagnosticStatus(
+            level=DiagnosticStatus.WARN if h.warn else DiagnosticStatus.OK,
+            name=h.name,
+            message=h.message,
+            hardware_id=self.node.get_fully_qualified_name(),
+            values=[KeyValue(key=k, value=v) for k, v in h.values],
+        )
+        array = DiagnosticArray(status=[st])
+        array.header.stamp = self.node.get_clock().now().to_msg()
+        self._diagnostics.publish(array)
+
+    def follow_clock(self, box: RungMailbox) -> None:
+        """use_sim_time: copy every /clock message (as int64 ns) into ``box``."""
+        from rclpy.qos import QoSProfile, ReliabilityPolicy
+        from rosgraph_msgs.msg import Clock
+
+        def on_clock(msg: Any) -> None:
+            ns = msg.clock.sec * 1_000_000_000 + msg.clock.nanosec
+            box.write(ns.to_bytes(8, "little", signed=True))
+
+        with self._lock:
+            self._clock_sub = self.node.create_subscription(
+                Clock,
+                "/clock",
+                on_clock,
+                # what rclpy's own time source uses: best effort reaches every publisher
+                QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT),
+            )
+
+    def component_loaded(self, info: dict[str, Any], runner: WorkerRunner) -> None:
+        """A node of the component's name, with its parameters and logger services."""
+        if info.get("launcher"):  # an rt_launcher's node is the component's face
+            return
+        from rclpy.node import Node
+
+        full = str(info["name"])
+        namespace, _, name = full.rpartition("/")
+        node = Node(
+            name, namespace=namespace or "/", context=self.context, use_global_arguments=False
+        )
+        level = runner.log_level
+        default = int(LogLevel[level.upper()]) if isinstance(level, str) else int(level)
+        self._faces[full] = ComponentFace(node, info, runner, default, runner, announced=True)
+        self.executor.add_node(node)
+
+    def parameter_set(self, name: str, value: Any) -> None:
+        """A component's params.set(): a parameter of the component's node (its private
+        ones), else of the runner's node; declared if new."""
+        owner = max((f for f in self._faces if name.startswith(f + "/")), key=len, default="")
+        node = self._faces[owner].node if owner else self.node
+        short = name[len(owner) + 1 :] if owner else name.lstrip("/")
+        short = short.replace("/", ".")
+        if node.has_parameter(short):
+            raise RtcfError(
+                f"{node.get_fully_qualified_name()} shows {short!r} read-only, as read at "
+                "configure time; set it before the node declares it (in configure, under "
+                "a new name) to publish a value"
+            )
+        node.declare_parameter(short, ros_value(value), read_only(value))
+
+    def _transitioned(self, component: str, outcome: TransitionOutcome) -> None:
+        """A component went through a transition: its node's transition events."""
+        face = self._faces.get(component)
+        if face is not None and face.lifecycle is not None:
+            face.lifecycle.publish(outcome)
+
+    def component_unloaded(self, name: str) -> None:
+        face = self._faces.pop(name, None)
+        if face is not None:
+            self.executor.remove_node(face.node)
+            face.close()
+            face.node.destroy_node()
+
+    def close_run(self) -> None:
+        """Publish what is left, then let go of the run's channels."""
+        with self._lock:
+            self._open = False
+            self._drain()
+            for pub in self._publishers:
+                self.node.destroy_publisher(pub)
+            for sub in self._subscriptions:
+                self.node.destroy_subscription(sub)
+            self._outputs.clear()
+            self._publishers.clear()
+            self._subscriptions.clear()
+
+    # -- the bridge thread -------------------------------------------------------
+    def _spin(self) -> None:
+        while self._running:
+            try:
+                self.executor.spin_once(timeout_sec=SPIN_TIMEOUT_S)
+            except Exception:  # shutting down
+                if not self._running:
+                    return
+                raise
+
+    def _publish(self) -> None:
+        # the lock guards the run's channels only: a service callback may wait in
+        # spin_once for the main thread, which needs the lock to close the run
+        while self._running:
+            self.doorbell.wait(SPIN_TIMEOUT_S)
+            with self._lock:
+                self._drain()
+
+    def _drain(self) -> None:
+        for ring, pub, convert in self._outputs:
+            while True:
+                start, n = ring.pending()
+                if n == 0:
+                    break
+                for slot in range(start, start + n):
+                    pub.publish(convert(read_record(ring, slot)))
+                ring.release(n)
+
+    def shutdown(self) -> None:
+        self._running = False
+        self._thread.join(timeout=5.0)
+        self._publisher.join(timeout=5.0)
+        self.doorbell.close()
+        self.executor.shutdown()
+        for face in self._faces.values():
+            face.close()
+            face.node.destroy_node()
+        self._faces.clear()
+        self.node.destroy_node()
+        if self._owns_context:
+            self._rclpy.shutdown(context=self.context)
+
+
+_FOUR_DOUBLES = struct.Struct("<4d")
+
+
+def _iteration_info_prefix() -> bytes:
+    """The CDR bytes of an iteration_info message before its four doubles.
+
+    Made by serializing a template and checked by a round trip, so a change of the
+    serialization cannot go unnoticed.
+    """
+    from rclpy.serialization import deserialize_message, serialize_message
+    from std_msgs.msg import Float64MultiArray, MultiArrayDimension
+
+    msg = Float64MultiArray()
+    msg.layout.dim = [MultiArrayDimension(label=",".join(ITERATION_INFO_LABELS), size=4, stride=4)]
+    msg.data = [0.0] * 4
+    prefix = serialize_message(msg)[: -_FOUR_DOUBLES.size]
+    probe = deserialize_message(prefix + _FOUR_DOUBLES.pack(1.0, 2.0, 3.0, 4.0), Float64MultiArray)
+    if list(probe.data) != [1.0, 2.0, 3.0, 4.0]:
+        raise RtcfError("iteration_info: the CDR template does not round-trip")
+    return prefix
+
+
+def _log_class() -> type:
+    from rcl_interfaces.msg import Log
+
+    return Log
+
+
+def _rosout_qos() -> Any:
+    """What rcl uses for /rosout: reliable, transient local, depth 1000."""
+    from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
+
+    return QoSProfile(
+        depth=1000,
+        reliability=ReliabilityPolicy.RELIABLE,
+        durability=DurabilityPolicy.TRANSIENT_LOCAL,
+    )
+
+
+def fetch_introspection(runner: str, timeout_s: float = 10.0) -> dict[str, Any]:
+    """Ask a running runner (``rtcf launch --middleware ros2`` or rt_runner) what it holds."""
+    rclpy = _import_rclpy()
+    import os
+
+    from rclpy.node import Node
+    from std_srvs.srv import Trigger
+
+    context = rclpy.Context()
+    rclpy.init(context=context, signal_handler_options=_no_signals(rclpy))
+    try:
+        node = Node(f"_rtcf_cli_{os.getpid()}", context=context, start_parameter_services=False)
+        service = runner.rstrip("/") + "/introspect"
+        client = node.create_client(Trigger, service)
+        if not client.wait_for_service(timeout_sec=timeout_s):
+            raise RtcfError(
+                f"no runner answers at {service} within {timeout_s:g} s; is it running "
+                "(rtcf launch ... --middleware ros2, or rt_runner) in this ROS_DOMAIN_ID? "
+                "name it with --runner"
+            )
+        from rclpy.executors import SingleThreadedExecutor
+
+        future = client.call_async(Trigger.Request())
+        executor = SingleThreadedExecutor(context=context)
+        executor.add_node(node)
+        executor.spin_until_future_complete(future, timeout_sec=timeout_s)
+        result = future.result()
+        if result is None:
+            raise RtcfError(f"{service} did not answer within {timeout_s:g} s")
+        data: dict[str, Any] = json.loads(result.message)
+        return data
+    finally:
+        rclpy.try_shutdown(context=context)
+
+
+def _no_signals(rclpy: Any) -> Any:
+    """rclpy must not take over SIGINT: the supervisor stops the loop gracefully."""
+    from rclpy.signals import SignalHandlerOptions
+
+    return SignalHandlerOptions.NO

@@ -1,0 +1,852 @@
+"""The supervisor's handle on a worker process: everything that is not real-time.
+
+:class:`WorkerRunner` starts ``python -m rtcf._runtime._worker``, sends it commands over a
+Unix socket between runs, and while the loop runs it drains the shared-memory
+rings (log records to Python logging, timing rows into histograms) and reports
+progress. It creates every shared-memory segment: anonymous memory (memfd) that
+it hands to the worker as a file descriptor over the control socket, so there is
+no name that could be left behind whatever way either process ends (SIGKILL
+included). A worker that dies is noticed within a polling interval and reported
+as an error.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import itertools
+import os
+import signal
+import socket
+import subprocess
+import sys
+import threading
+import time
+from collections.abc import Callable
+from dataclasses import dataclass
+from multiprocessing.connection import Connection
+from typing import Any, Protocol
+
+from .._core._errors import RtcfError
+from .._core._executor import ABORT, CONTROL, STOP
+from .._core._faults import Fault, SafeStopOutcome
+from .._core._lifecycle import (
+    OUTCOME_RECORD_SIZE,
+    OUTCOME_RING_RECORDS,
+    STATE_LABELS,
+    UNKNOWN,
+    TransitionOutcome,
+    decode_outcome,
+    refused,
+)
+from .._core._log import LOG_RECORD_SIZE, LogLevel, LogRecord, PythonLoggingSink, drain_channel
+from .._core._params import ParameterStore
+from .._core._rings import Mailbox, Ring
+from .._core._runner import ComponentSpec, RunResult
+from .._core._settings import RunnerSettings
+from .._core._timing import FIXED_COLUMNS, TimingAggregate, TimingSummary, ring_capacity, row_size
+from .._core._tunables import (
+    LIFECYCLE,
+    LOG_LEVEL,
+    PARAMETER,
+    UPDATE_RECORD_SIZE,
+    UPDATE_RING_RECORDS,
+    TunableSpec,
+    encode_update,
+)
+from ._doorbell import Doorbell, RungMailbox
+from ._port_channels import OUTPUT_RING_RECORDS, MappedPort, segment_size
+from ._shm import Segment, outgoing, send_segments
+from ._worker import (
+    CLOCK_MAILBOX_OFFSET,
+    CTL_FAULTS,
+    CTL_HEARTBEAT,
+    CTL_RUNNING,
+    CTL_STOP,
+    WORKER_MODULE,
+    error_from_dict,
+)
+
+POLL_S = 0.01  # how often the supervisor drains while it waits for the worker
+STATUS_EVERY_S = 0.5
+DIAGNOSTICS_EVERY_S = 1.0
+
+
+class WorkerDied(RtcfError):
+    """The worker process ended without being asked to."""
+
+
+@dataclass
+class LiveStatus:
+    """What the status line shows while the loop runs."""
+
+    iterations: int
+    overruns: int
+    jitter_p999_us: float
+    calc_p999_us: float
+    calc_max_us: float
+    log_records_dropped: int
+    elapsed_s: float
+    faults: int = 0  # component failures a policy contained (on_error deactivate/restart)
+
+
+class WorkerRunner:
+    """A runner whose loop runs in a worker process; the same verbs as :class:`Runner`."""
+
+    def __init__(
+        self,
+        settings: RunnerSettings,
+        *,
+        name: str = "rt_runner",
+        parameters: ParameterStore | None = None,
+        simulated: bool = False,
+        log_level: str = "info",
+        log_sink: Callable[[LogRecord], None] | None = None,
+        log_capacity: int = 4096,
+        on_status: Callable[[LiveStatus], None] | None = None,
+        on_started: Callable[[dict[str, Any]], None] | None = None,
+        bridge: Bridge | None = None,
+    ) -> None:
+        self.settings = settings
+        self.name = name
+        self.parameters = parameters if parameters is not None else ParameterStore()
+        self.simulated = simulated
+        self.log_level = log_level
+        console = log_sink or PythonLoggingSink()
+        self.log_sink = console if bridge is None else _both(console, bridge.log)
+        self.log_capacity = log_capacity
+        self.on_status = on_status
+        self.on_started = on_started
+        self.bridge = bridge
+        self.process: subprocess.Popen[bytes] | None = None
+        self.conn: Connection | None = None
+        self._segments: list[Segment] = []
+        self._control: Segment | None = None
+        self._ctl: memoryview | None = None
+        self._log_ring: Ring | None = None
+        self._clock_box: Mailbox | None = None
+        self._clock_bell: Doorbell | None = None  # rung with each /clock message
+        self._timing: tuple[Ring, list[str], TimingAggregate] | None = None
+        self._events: dict[str, Any] = {}
+        self._hook: tuple[str, str, float] | None = None  # the hook the worker runs now
+        self.exit_reported = False
+        # loaded components as tools see them (type, ports, parameters, tunables)
+        self.components: dict[str, dict[str, Any]] = {}
+        # what the introspection commands show; refreshed by the main thread after
+        # loads and unloads, read by the bridge's service (which must not wait on it)
+        self.introspection: dict[str, Any] = {}
+        # updates for the worker: the bridge thread sets, the main thread retries
+        self._update_lock = threading.Lock()
+        self._update_ring: Ring | None = None
+        self._backlog: dict[tuple[int, str, str], bytes] = {}
+        # lifecycle transitions: asked for by any thread, answered by the worker on the
+        # outcome ring, which the main thread drains (pump)
+        self._outcome_ring: Ring | None = None
+        self._pending: dict[int, _PendingTransition] = {}
+        self._request_numbers = itertools.count(1)
+        # told every transition a component went through (a bridge: transition events)
+        self.transition_listeners: list[Callable[[str, TransitionOutcome], None]] = []
+        # wakes a main thread that waits for requests while no loop runs (RequestQueue)
+        self.wake_idle: Callable[[], None] | None = None
+        self._owner = threading.get_ident()  # the thread of the control channel (start)
+
+    # -- process ---------------------------------------------------------------
+    def start(self) -> WorkerRunner:
+        self._owner = threading.get_ident()
+        if self.bridge is not None:
+            self.bridge.configure(self.settings, self)
+        control = self._segment(CLOCK_MAILBOX_OFFSET + Mailbox.nbytes(8), "rtcf-control")
+        self._control = control
+        self._ctl = control.buf[:CLOCK_MAILBOX_OFFSET].cast("q")
+        if self.settings.use_sim_time:
+            if self.bridge is None:
+                raise RtcfError(
+                    f"runner {self.name!r}: use_sim_time needs a middleware that publishes "
+                    "/clock; run with --middleware ros2"
+                )
+            clock_view = control.buf[CLOCK_MAILBOX_OFFSET:]
+            self._clock_box = Mailbox.create(clock_view, 8)
+            clock_view.release()
+            self._clock_bell = Doorbell.create()
+            self.bridge.follow_clock(RungMailbox(self._clock_box, self._clock_bell))
+        log = self._segment(Ring.nbytes(self.log_capacity, LOG_RECORD_SIZE), "rtcf-log")
+        self._log_ring = Ring.create(log.buf, self.log_capacity, LOG_RECORD_SIZE)
+        # one segment, two rings: updates to the worker, lifecycle outcomes back
+        first = Ring.nbytes(UPDATE_RING_RECORDS, UPDATE_RECORD_SIZE)
+        updates = self._segment(
+            first + Ring.nbytes(OUTCOME_RING_RECORDS, OUTCOME_RECORD_SIZE), "rtcf-updates"
+        )
+        self._update_ring = Ring.create(updates.buf, UPDATE_RING_RECORDS, UPDATE_RECORD_SIZE)
+        view = updates.buf[first:]
+        self._outcome_ring = Ring.create(view, OUTCOME_RING_RECORDS, OUTCOME_RECORD_SIZE)
+        view.release()
+        ours, theirs = socket.socketpair(socket.AF_UNIX, socket.SOCK_STREAM)
+        # blocking whatever socket.setdefaulttimeout() says: rospy sets a process-wide
+        # timeout, which makes new sockets non-blocking underneath, and the worker would
+        # read EAGAIN on its control channel as the end of it
+        ours.setblocking(True)
+        theirs.setblocking(True)
+        bell = self.bridge.doorbell.fd if self.bridge is not None else -1
+        clock_bell = self._clock_bell.fd if self._clock_bell is not None else -1
+        try:
+            self.process = subprocess.Popen(
+                [sys.executable, "-m", WORKER_MODULE, str(theirs.fileno()), str(os.getpid())],
+                pass_fds=tuple(fd for fd in (theirs.fileno(), bell, clock_bell) if fd >= 0),
+                stdin=subprocess.DEVNULL,
+                env=_worker_env(),
+            )
+        finally:
+            theirs.close()
+        self.conn = Connection(ours.detach())
+        self.call(
+            "hello",
+            list(sys.path),
+            control,
+            log,
+            updates,
+            self.settings,
+            self.parameters.as_dict(),
+            self.name,
+            self.simulated,
+            self.log_level,
+            bell,
+            clock_bell,
+        )
+        self.refresh_introspection()
+        return self
+
+    def _segment(self, size: int, name: str) -> Segment:
+        seg = Segment.create(size, name)
+        self._segments.append(seg)
+        return seg
+
+    @property
+    def pid(self) -> int | None:
+        return self.process.pid if self.process else None
+
+    def __enter__(self) -> WorkerRunner:
+        return self.start() if self.process is None else self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+    # -- the control channel -----------------------------------------------------
+    def call(self, command: str, *args: Any) -> Any:
+        """Send a command and wait for its answer, draining the rings meanwhile."""
+        conn = self._conn()
+        args, segments = outgoing(args)
+        try:
+            conn.send((command, args))
+            send_segments(conn, segments)
+        except (BrokenPipeError, ConnectionResetError, OSError):
+            raise self._died(f"while sending {command!r}") from None
+        for seg in segments:  # the worker's copy is in flight or mapped: ours can go
+            seg.close_fd()
+        last_status = last_diagnostics = time.monotonic()
+        self._hook = None
+        while True:
+            try:
+                ready = conn.poll(POLL_S)
+            except (EOFError, OSError):
+                ready = True
+            if self._ctl is not None:
+                self._ctl[CTL_HEARTBEAT] += 1  # a sign of life for the worker's watch
+            self.pump()
+            if self._hook is not None and not ready:
+                component, hook, since = self._hook
+                if time.monotonic() - since > self.settings.hook_timeout:
+                    raise self._hung(component, hook)
+            if self.on_status is not None and self._timing is not None:
+                now = time.monotonic()
+                if now - last_status >= STATUS_EVERY_S:
+                    last_status = now
+                    self.on_status(self.live_status())
+            if self.bridge is not None and self._timing is not None:
+                now = time.monotonic()
+                if now - last_diagnostics >= DIAGNOSTICS_EVERY_S:
+                    last_diagnostics = now
+                    self.bridge.diagnostics(self.name, self.live_status(), self._timing[2])
+            if not ready:
+                if self.process is not None and self.process.poll() is not None:
+                    raise self._died(f"during {command!r}")
+                continue
+            try:
+                message = conn.recv()
+            except (EOFError, OSError):
+                raise self._died(f"during {command!r}") from None
+            kind = message[0]
+            if kind == "event":
+                self._events[message[1]] = message[2]
+                if message[1] == "hook":
+                    component, hook = message[2]
+                    self._hook = (component, hook, time.monotonic())
+                    continue
+                if message[1] == "parameter_set":
+                    self._parameter_set(*message[2])
+                    continue
+                if message[1] == "started":
+                    self._hook = None  # the loop runs: its time is the watchdogs' business
+                    self._on_started()
+                continue
+            self.pump()
+            if kind == "error":
+                raise error_from_dict(message[1])
+            return message[1]
+
+    def _conn(self) -> Connection:
+        if self.conn is None:
+            raise RtcfError("the worker process is not running; call start() first")
+        return self.conn
+
+    def _parameter_set(self, name: str, value: Any) -> None:
+        """A component set a parameter: keep it, and tell the middleware's parameters."""
+        self.parameters.set(name, value)
+        tell = getattr(self.bridge, "parameter_set", None)
+        if tell is not None:
+            try:
+                tell(name, value)
+            except Exception as exc:  # the loop goes on; say why the middleware missed it
+                self.log_sink(_note(30, f"parameter {name} was set to {value!r} in the "
+                                        f"runner but not in the middleware: {exc}"))
+
+    def _hung(self, component: str, hook: str) -> WorkerDied:
+        """A hook did not return within hook_timeout: kill the worker and say which."""
+        limit = self.settings.hook_timeout
+        self.kill()
+        self.pump()
+        self.exit_reported = True
+        return WorkerDied(
+            f"runner {self.name!r}: component {component!r}: {hook}() did not return within "
+            f"{limit:g} s (hook_timeout); the worker process (pid {self.pid}) was killed, so "
+            "the hooks after it did not run; raise hook_timeout if it needs longer"
+        )
+
+    def kill(self) -> None:
+        """Kill the worker at once (SIGKILL): no hook runs any more."""
+        proc = self.process
+        if proc is not None and proc.poll() is None:
+            proc.kill()
+            try:
+                proc.wait(timeout=5.0)
+            except subprocess.TimeoutExpired:
+                pass
+
+    def _running_now(self) -> str:
+        """What the worker was doing, from the running word and the last hook event."""
+        if self._hook is not None:
+            return f" while {self._hook[0]}'s {self._hook[1]}() was running"
+        if self._ctl is None or self._timing is None:
+            return ""
+        column = self._ctl[CTL_RUNNING]
+        schedule = self._timing[1]
+        if FIXED_COLUMNS <= column < FIXED_COLUMNS + len(schedule):
+            return f" while {schedule[column - FIXED_COLUMNS]}'s update() was running"
+        return ""
+
+    def _died(self, when: str) -> WorkerDied:
+        proc = self.process
+        code = None
+        if proc is not None:
+            try:
+                code = proc.wait(timeout=2.0)
+            except subprocess.TimeoutExpired:
+                code = None
+        if code is not None and code < 0:
+            how = f"was killed by {signal.Signals(-code).name}"
+        elif code is not None:
+            how = f"exited with status {code}"
+        else:
+            how = "stopped answering"
+        self.pump()
+        where = ""
+        if self._timing is not None:
+            where = f" after iteration {self._timing[2].last_iteration}"
+        where += self._running_now()
+        self.exit_reported = True
+        return WorkerDied(
+            f"runner {self.name!r}: the worker process (pid {self.pid}) {how} {when}{where}; "
+            "the components' stop() and cleanup() did not run"
+        )
+
+    # -- draining ------------------------------------------------------------------
+    def pump(self) -> None:
+        """Drain log records and timing rows (non-real-time work, called often)."""
+        if self._log_ring is not None:
+            drain_channel(self._log_ring, self.log_sink)
+        if self._timing is not None:
+            ring, names, aggregate = self._timing
+            aggregate.consume(ring, names)
+        if self._backlog:
+            with self._update_lock:
+                self._send_backlog()
+        if self._outcome_ring is not None and len(self._outcome_ring):
+            self._drain_outcomes()
+
+    @property
+    def log_records_dropped(self) -> int:
+        return self._log_ring.dropped if self._log_ring is not None else 0
+
+    def live_status(self) -> LiveStatus:
+        aggregate = self._timing[2] if self._timing else TimingAggregate()
+        started = self._events.get("started_at", time.monotonic())
+        return LiveStatus(
+            iterations=aggregate.rows,
+            overruns=aggregate.overruns,
+            jitter_p999_us=aggregate.jitter.quantile(0.999) / 1e3,
+            calc_p999_us=aggregate.calc.quantile(0.999) / 1e3,
+            calc_max_us=aggregate.calc.quantile(1.0) / 1e3,
+            log_records_dropped=self.log_records_dropped,
+            elapsed_s=time.monotonic() - started,
+            faults=self._ctl[CTL_FAULTS] if self._ctl is not None else 0,
+        )
+
+    # -- the runner's verbs ------------------------------------------------------
+    def load(self, spec: ComponentSpec, *, launcher: str = "") -> str:
+        if spec.cls is not None:
+            # the worker imports the class by name, as an rt_launcher would ask for it
+            spec = dataclasses.replace(
+                spec, cls=None, module=spec.cls.__module__, class_name=spec.cls.__qualname__
+            )
+        info = dict(self.call("load", spec))
+        info["launcher"] = launcher
+        full = str(info["name"])
+        with self._update_lock:
+            self.components[full] = info
+        self.refresh_introspection()
+        if self.bridge is not None:
+            self.bridge.component_loaded(info, self)
+        return full
+
+    def set_parameters(self, values: dict[str, Any]) -> None:
+        """Set absolute parameters in the worker's tree (components read them at
+        configure): a middleware's parameter server, fetched before a load."""
+        for name, value in values.items():
+            self.parameters.set(name, value)
+        self.call("set_parameters", values)
+
+    def unload(self, name: str) -> None:
+        full = name if name.startswith("/") else "/" + name
+        self.call("unload", full)
+        with self._update_lock:
+            self.components.pop(full, None)
+            self._backlog = {k: v for k, v in self._backlog.items() if k[1] != full}
+            dropped = [n for n, p in self._pending.items() if p.component == full]
+        for number in dropped:
+            self._answer(number, refused(UNKNOWN, f"component {full!r} was unloaded"))
+        self.refresh_introspection()
+        if self.bridge is not None:
+            self.bridge.component_unloaded(full)
+
+    def refresh_introspection(self) -> dict[str, Any]:
+        data = dict(self.call("introspect"))
+        data["runner"] = self.name
+        with self._update_lock:
+            self.introspection = data
+        return data
+
+    def introspect(self) -> dict[str, Any]:
+        """The last introspection data, with the current tunable values and log levels."""
+        with self._update_lock:
+            data = dict(self.introspection)
+            data["components"] = [
+                self.components.get(c["name"], c) for c in data.get("components", [])
+            ]
+        return data
+
+    # -- tuning while running (any thread) ---------------------------------------
+    def tunable(self, component: str, name: str) -> TunableSpec:
+        """The declaration of a loaded component's tunable parameter."""
+        info = self._component(component)
+        for t in info["tunables"]:
+            if t["name"] == name:
+                return TunableSpec.from_dict({k: v for k, v in t.items() if k != "value"})
+        known = ", ".join(t["name"] for t in info["tunables"]) or "none"
+        raise RtcfError(
+            f"component {info['name']!r} has no tunable parameter {name!r} (it declares: {known})"
+        )
+
+    def set_parameter(self, component: str, name: str, value: Any) -> Any:
+        """Validate a new value here, then hand it to the worker for the next iteration."""
+        spec = self.tunable(component, name)
+        value = spec.validate(value)
+        with self._update_lock:
+            for t in self._component(component)["tunables"]:
+                if t["name"] == name:
+                    t["value"] = value
+            self._post((PARAMETER, spec.component, name), value)
+        return value
+
+    def set_log_level(self, component: str, level: int | str) -> None:
+        """Filter the component's records in the worker from the next iteration on."""
+        info = self._component(component)
+        number = LogLevel[level.upper()] if isinstance(level, str) else int(level)
+        with self._update_lock:
+            info["log_level"] = number
+            self._post((LOG_LEVEL, str(info["name"]), ""), number)
+
+    def _component(self, name: str) -> dict[str, Any]:
+        full = name if name.startswith("/") else "/" + name
+        info = self.components.get(full)
+        if info is None:
+            known = ", ".join(self.components) or "none"
+            raise RtcfError(f"component {full!r} is not loaded (loaded: {known})")
+        return info
+
+    def _post(self, key: tuple[int, str, str], value: Any) -> None:
+        # the newest value of each key wins; older ones still waiting are replaced
+        self._backlog.pop(key, None)
+        self._backlog[key] = encode_update(key[0], key[1], key[2], value)
+        self._send_backlog()
+
+    def _send_backlog(self) -> None:
+        ring = self._update_ring
+        if ring is None:
+            return
+        for key in list(self._backlog):
+            if not ring.push(self._backlog[key]):
+                return  # full: pump() tries again; the worker takes them between iterations
+            del self._backlog[key]
+
+    # -- lifecycle (any thread) ------------------------------------------------------
+    def lifecycle_state(self, component: str) -> str:
+        """A component's lifecycle state as last reported by the worker."""
+        return str(self._component(component).get("lifecycle", "unknown"))
+
+    def change_state(
+        self, component: str, transition: int | str, timeout: float | None = None
+    ) -> TransitionOutcome:
+        """Ask for a component's lifecycle transition and wait for its outcome.
+
+        It crosses to the worker as an update record, like a parameter change, and the
+        loop applies it at the start of its next iteration (between runs: before the
+        worker's next command). The answer comes back on the outcome ring. The loop
+        goes on meanwhile. Waiting longer than ``timeout`` (default: 10 s and three
+        periods) gives up with a refusal; the transition may still happen later (the
+        listeners hear of it then).
+        """
+        info = self._component(component)
+        full = str(info["name"])
+        if timeout is None:
+            timeout = 10.0 + 3.0 / self.settings.frequency
+        pending = _PendingTransition(full)
+        with self._update_lock:
+            number = next(self._request_numbers)
+            self._pending[number] = pending
+            # a key of its own: unlike values, transitions are never merged
+            key = (LIFECYCLE, full, f"#{number}")
+            self._backlog[key] = encode_update(LIFECYCLE, full, str(transition), number)
+            self._send_backlog()
+        if not self.loop_running:  # no loop reads the record: the main thread hands it over
+            if threading.get_ident() == self._owner:
+                self.sync()
+            elif self.wake_idle is not None:
+                self.wake_idle()
+        if not pending.done.wait(timeout):
+            with self._update_lock:
+                self._pending.pop(number, None)
+            return refused(
+                UNKNOWN,
+                f"component {full!r}: no answer to {transition!r} within {timeout:g} s (the "
+                "loop did not reach its next iteration); it may still happen",
+            )
+        assert pending.outcome is not None
+        return pending.outcome
+
+    @property
+    def transitions_pending(self) -> bool:
+        """Whether a transition waits for the worker (the main thread should sync)."""
+        return bool(self._pending)
+
+    @property
+    def loop_running(self) -> bool:
+        return self._timing is not None
+
+    def sync(self) -> None:
+        """Have the worker apply what waits for it, when no loop runs (main thread)."""
+        self.call("sync")
+
+    def _drain_outcomes(self) -> None:
+        ring = self._outcome_ring
+        assert ring is not None
+        while True:
+            record = ring.pop()
+            if record is None:
+                return
+            number, component, outcome = decode_outcome(record)
+            self._answer(number, outcome, component)
+
+    def _answer(self, number: int, outcome: TransitionOutcome, component: str = "") -> None:
+        """An outcome: the answer to request ``number``, or (0, or a request whose caller
+        gave up waiting) a change all the same: the cache and the listeners hear of it."""
+        with self._update_lock:
+            pending = self._pending.pop(number, None) if number else None
+            if pending is not None:
+                component = pending.component
+            info = self.components.get(component)
+            if info is not None and outcome.result != "refused":
+                info["lifecycle"] = STATE_LABELS[outcome.end]
+        if outcome.result != "refused" and component:
+            for listener in self.transition_listeners:
+                listener(component, outcome)
+        if pending is not None:
+            pending.outcome = outcome
+            pending.done.set()
+
+    def activate(self) -> None:
+        self.call("activate")
+
+    def deactivate(self) -> None:
+        self.call("deactivate")
+
+    def describe(self) -> dict[str, Any]:
+        return dict(self.call("describe"))
+
+    def request_stop(self, *, abort: bool = False) -> None:
+        """End the loop after the current iteration (safe from a signal handler).
+
+        ``abort``: not a normal stop (a signal): the components' safe_stop hooks run.
+        """
+        if self._ctl is not None:
+            if abort or self._ctl[CTL_STOP] != ABORT:
+                self._ctl[CTL_STOP] = ABORT if abort else STOP
+            self._wake_clock()
+
+    def request_control(self) -> None:
+        """End the loop after the iteration so a request can be served (it resumes after)."""
+        if self._ctl is not None and self._ctl[CTL_STOP] not in (STOP, ABORT):
+            self._ctl[CTL_STOP] = CONTROL
+            self._wake_clock()
+
+    def _wake_clock(self) -> None:
+        """A loop waiting for /clock time sees the stop word at once."""
+        bell = self._clock_bell
+        if bell is not None and bell.fd >= 0:
+            bell.ring()
+
+    @property
+    def stop_reason(self) -> int:
+        return self._ctl[CTL_STOP] if self._ctl is not None else 0
+
+    def clear_stop(self) -> None:
+        """Forget a stop request (the next run runs); a stop asked for earlier sticks."""
+        if self._ctl is not None:
+            self._ctl[CTL_STOP] = 0
+
+    @property
+    def stop_requested(self) -> bool:
+        return self._ctl is not None and self._ctl[CTL_STOP] != 0
+
+    def run(self, iterations: int | None = None, *, trace: str | None = None) -> RunResult:
+        """Run the loop in the worker until ``iterations`` ran or :meth:`request_stop`."""
+        prepared = self.call("prepare", self.bridge is not None)
+        schedule: list[str] = prepared["schedule"]
+        ports: list[MappedPort] = prepared["ports"]
+        capacity = ring_capacity(len(schedule))
+        seg = self._segment(Ring.nbytes(capacity, row_size(len(schedule))), "rtcf-timing")
+        ring = Ring.create(seg.buf, capacity, row_size(len(schedule)))
+        port_seg, channels = self._port_channels(ports)
+        aggregate = TimingAggregate()
+        if self.bridge is not None and self.settings.iteration_info:
+            aggregate.on_rows = self.bridge.iteration_info
+        self._timing = (ring, schedule, aggregate)
+        self._events.pop("started", None)
+        try:
+            if self.bridge is not None and ports:
+                self.bridge.open(ports, channels)
+            done = self.call("run", iterations, seg, trace, port_seg, ports)
+        finally:
+            self._timing = None
+            aggregate.finish(ring, schedule)
+            ring.close()
+            self._close_segment(seg)
+            if self.bridge is not None and ports:
+                self.bridge.close_run()
+            for topic, channel in channels.items():
+                if isinstance(channel, Ring) and channel.dropped:
+                    self.log_sink(_note(30, f"{channel.dropped} messages on {topic} were dropped: "
+                                            "the channel to the middleware was full"))
+                channel.close()
+            if port_seg is not None:
+                self._close_segment(port_seg)
+        for topic, n in done.get("oversize", {}).items():
+            self.log_sink(_note(30, f"{n} messages on {topic} were larger than a channel record "
+                                    "and were not published"))
+        timing = aggregate.summary(done["rows"], done["overruns"])
+        return RunResult(
+            iterations=done["iterations"],
+            stopped_by=done["stopped_by"],
+            timing=timing if not done["simulated"] else _counts_only(timing),
+            order=done["order"],
+            log_records_dropped=self.log_records_dropped,
+            simulated=done["simulated"],
+            realtime=done["realtime"],
+            aggregate=aggregate,
+            faults=[Fault(**f) for f in done.get("faults", [])],
+            safe_stops=[SafeStopOutcome(**o) for o in done.get("safe_stops", [])],
+        )
+
+    def _port_channels(
+        self, ports: list[MappedPort]
+    ) -> tuple[Segment | None, dict[str, Ring | Mailbox]]:
+        """One segment holding a ring per mapped output and a mailbox per mapped input."""
+        if not ports:
+            return None, {}
+        seg = self._segment(segment_size(ports), "rtcf-ports")
+        channels: dict[str, Ring | Mailbox] = {}
+        for p in ports:
+            view = seg.buf[p.offset : p.offset + p.nbytes]
+            if p.direction == "output":
+                channels[p.topic] = Ring.create(view, OUTPUT_RING_RECORDS, 8 + p.max_size)
+            else:
+                channels[p.topic] = Mailbox.create(view, p.max_size)
+            view.release()
+        return seg, channels
+
+    def _on_started(self) -> None:
+        self._events["started_at"] = time.monotonic()
+        realtime = self._events["started"]
+        if self.settings.cpu_affinity_mask:
+            _keep_off_cpus(realtime.get("cpu_affinity") or [])
+        if self.on_started is not None:
+            self.on_started(realtime)
+
+    def shutdown(self) -> list[RtcfError]:
+        """Stop and clean up every component in the worker, then let it exit."""
+        if self.conn is None or self.process is None or self.process.poll() is not None:
+            return []
+        errors = [error_from_dict(d) for d in self.call("shutdown")]
+        try:
+            self.process.wait(timeout=10.0)
+        except subprocess.TimeoutExpired:
+            pass
+        return errors
+
+    def close(self) -> None:
+        """Make sure the worker is gone and every segment is unmapped and removed."""
+        if self.bridge is not None:
+            self.bridge.shutdown()
+            self.bridge = None
+        proc = self.process
+        if self.conn is not None:
+            # end of file on its control channel: the worker cleans up its components
+            # and leaves (a loop still running is stopped first)
+            self.request_stop()
+            self.conn.close()
+            self.conn = None
+        if proc is not None and proc.poll() is None:
+            try:
+                proc.wait(timeout=5.0)
+            except subprocess.TimeoutExpired:
+                proc.terminate()
+                try:
+                    proc.wait(timeout=2.0)
+                except subprocess.TimeoutExpired:
+                    proc.kill()
+                    proc.wait()
+        if self._ctl is not None:
+            self._ctl.release()
+            self._ctl = None
+        if self._log_ring is not None:
+            self._log_ring.close()
+            self._log_ring = None
+        if self._update_ring is not None:
+            with self._update_lock:
+                self._update_ring.close()
+                self._update_ring = None
+        if self._outcome_ring is not None:
+            self._outcome_ring.close()
+            self._outcome_ring = None
+        for number in list(self._pending):
+            self._answer(number, refused(UNKNOWN, "the runner is shutting down"))
+        if self._clock_box is not None:
+            self._clock_box.close()
+            self._clock_box = None
+        if self._clock_bell is not None:
+            self._clock_bell.close()
+        for seg in list(self._segments):
+            self._close_segment(seg)
+
+    def _close_segment(self, seg: Segment) -> None:
+        seg.close()
+        self._segments.remove(seg)
+
+
+class _PendingTransition:
+    """A transition a caller waits for."""
+
+    def __init__(self, component: str) -> None:
+        self.component = component
+        self.done = threading.Event()
+        self.outcome: TransitionOutcome | None = None
+
+
+class Bridge(Protocol):
+    """A middleware bridge in the supervisor (ROS 2, ROS 1): topics for mapped ports."""
+
+    doorbell: Doorbell  # the worker rings it after each record it pushed for the bridge
+
+    def configure(self, settings: RunnerSettings, runner: WorkerRunner) -> None:
+        """The runner's settings (QoS, iteration_info) and what introspection asks,
+        before anything else."""
+
+    def open(self, ports: list[MappedPort], channels: dict[str, Ring | Mailbox]) -> None: ...
+
+    def iteration_info(self, rows: Any) -> None:
+        """Timing rows as they are drained (numpy int64, one row per iteration)."""
+
+    def close_run(self) -> None: ...
+
+    def log(self, rec: LogRecord) -> None: ...
+
+    def follow_clock(self, box: RungMailbox) -> None: ...
+
+    def component_loaded(self, info: dict[str, Any], runner: WorkerRunner) -> None:
+        """A component was loaded: show it (a node of its own name, its parameters)."""
+
+    def component_unloaded(self, name: str) -> None: ...
+
+    def diagnostics(
+        self, runner: str, status: LiveStatus, aggregate: TimingAggregate
+    ) -> None: ...
+
+    def shutdown(self) -> None: ...
+
+
+def _both(
+    first: Callable[[LogRecord], None], second: Callable[[LogRecord], None]
+) -> Callable[[LogRecord], None]:
+    def sink(rec: LogRecord) -> None:
+        first(rec)
+        second(rec)
+
+    return sink
+
+
+def _note(level: int, text: str) -> LogRecord:
+    return LogRecord(level, "rt_runner", text)
+
+
+def _counts_only(timing: TimingSummary) -> TimingSummary:
+    """On a simulated clock, the measured times mean nothing: keep only the counts."""
+    return TimingSummary(iterations=timing.iterations, samples=0, overruns=timing.overruns)
+
+
+def _worker_env() -> dict[str, str]:
+    env = dict(os.environ)
+    # the worker must find this very rtcf even when it is not installed
+    src = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+    env["PYTHONPATH"] = os.pathsep.join(p for p in (src, env.get("PYTHONPATH", "")) if p)
+    # a component that imports numpy must not start BLAS worker threads beside the loop
+    for key in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
+        env.setdefault(key, "1")
+    return env
+
+
+def _keep_off_cpus(worker_cpus: list[int]) -> None:
+    """Move the supervisor off the worker's CPUs when that leaves it somewhere to run."""
+    try:
+        mine = os.sched_getaffinity(0)
+        rest = mine - set(worker_cpus)
+        if worker_cpus and rest and rest != mine:
+            os.sched_setaffinity(0, rest)
+    except OSError:
+        pass

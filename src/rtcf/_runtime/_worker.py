@@ -1,0 +1,507 @@
+"""The worker process: holds the components and runs the loop, nothing else.
+
+Started by the supervisor as ``python -m rtcf._runtime._worker FD SUPERVISOR_PID``. It
+imports, constructs and configures the components, applies the real-time settings
+and runs the loop. It imports no middleware, starts no thread and does no
+blocking I/O while the loop runs. Everything it tells the supervisor while running
+goes through shared memory (log records, timing rows, and the outcomes of lifecycle
+transitions, which arrive as update records and are applied at the start of an
+iteration); the control connection (a Unix socket, pickled messages) is used only
+between runs: load, unload, run, stop.
+
+Messages from the supervisor are ``(command, args)``; the worker answers each with
+``("reply", value)`` or ``("error", details)``, and may send ``("event", name,
+value)`` before the answer (``started`` when the loop begins).
+"""
+
+from __future__ import annotations
+
+import ctypes
+import ctypes.util
+import os
+import signal
+import sys
+import traceback
+from collections.abc import Callable
+from multiprocessing.connection import Connection
+from types import FrameType
+from typing import Any
+
+from .._core._clock import Clock, MiddlewareClock, MonotonicClock, SimClock
+from .._core._errors import ComponentError, ConfigurationError, GraphError, LaunchError, RtcfError
+from .._core._executor import ABORT, StopFlag
+from .._core._lifecycle import REFUSED, encode_outcome
+from .._core._log import LogWriter
+from .._core._params import ParameterStore
+from .._core._rings import Mailbox, Ring
+from .._core._runner import ComponentSpec, Runner
+from .._core._settings import RunnerSettings
+from .._core._trace import Trace
+from .._core._tunables import LIFECYCLE, UPDATE_RECORD_SIZE, UPDATE_RING_RECORDS, UpdateReader
+from ._doorbell import Doorbell
+from ._port_channels import MappedPort, WorkerPorts, mapped_ports
+from ._realtime import FrozenGC, RealtimeReport, apply_realtime
+from ._shm import Segment, receive_segments
+
+WORKER_MODULE = "rtcf._runtime._worker"  # what the supervisor runs with `python -m`
+
+# words of the control segment (int64 each)
+CTL_STOP = 0  # non-zero: the loop ends after the current iteration (the supervisor writes it)
+CTL_ITERATION = 1  # the last iteration the worker finished a run at (informative)
+CTL_RUNNING = 2  # timing column of the component whose update runs now, -1: none (worker)
+CTL_HEARTBEAT = 3  # the supervisor counts up while it waits for a run (its sign of life)
+CTL_FAULTS = 4  # failures a policy contained so far (the worker counts)
+CTL_WORDS = 8
+CLOCK_MAILBOX_OFFSET = 8 * CTL_WORDS  # the /clock mailbox follows the control words
+
+_ERRORS: dict[str, type[RtcfError]] = {
+    cls.__name__: cls
+    for cls in (RtcfError, ComponentError, ConfigurationError, GraphError, LaunchError)
+}
+
+
+def error_to_dict(exc: BaseException) -> dict[str, Any]:
+    """What the supervisor needs to rebuild the error (exceptions may not pickle)."""
+    out: dict[str, Any] = {
+        "type": type(exc).__name__,
+        "message": str(exc),
+        "traceback": "".join(traceback.format_exception(exc)),
+    }
+    if isinstance(exc, RtcfError):
+        out.update(message=exc.message, file=exc.file, line=exc.line)
+        out["component"] = getattr(exc, "component", None)
+    return out
+
+
+def error_from_dict(d: dict[str, Any]) -> RtcfError:
+    cls = _ERRORS.get(d["type"])
+    if cls is None:  # not one of ours: a bug in the worker itself
+        return RtcfError(f"the worker failed: {d['type']}: {d['message']}")
+    if cls is ComponentError:
+        err: RtcfError = ComponentError(
+            d["message"], component=d.get("component"), file=d.get("file"), line=d.get("line")
+        )
+    else:
+        err = cls(d["message"], file=d.get("file"), line=d.get("line"))
+    err.worker_traceback = d.get("traceback", "")  # type: ignore[attr-defined]
+    return err
+
+
+class Worker:
+    def __init__(self, conn: Connection) -> None:
+        self.conn = conn
+        self.runner: Runner | None = None
+        self.segments: list[Segment] = []
+        self.log_writer: LogWriter | None = None
+        self.updates: UpdateReader | None = None  # tunable values and log levels
+        self._update_ring: Ring | None = None
+        self._outcome_ring: Ring | None = None  # lifecycle outcomes, back to the supervisor
+        self.clock_box: Mailbox | None = None
+        self.stop: StopFlag | None = None
+        self.settings = RunnerSettings()
+        self.simulated = False
+        self.realtime: RealtimeReport | None = None
+        self.done = False
+        self.doorbell: Doorbell | None = None  # the worker rings: outputs to publish
+        self.clock_doorbell: Doorbell | None = None  # the supervisor rings: /clock
+        self._in_loop = False  # hooks in the loop are not announced over the socket
+        self._parameters_set: list[tuple[str, Any]] = []  # params.set() while it ran
+
+    # -- the command loop ------------------------------------------------------
+    def serve(self) -> int:
+        handlers: dict[str, Callable[..., Any]] = {
+            "hello": self.hello,
+            "load": self.load,
+            "unload": self.unload,
+            "activate": self.activate,
+            "deactivate": self.deactivate,
+            "describe": self.describe,
+            "describe_component": self.describe_component,
+            "introspect": self.introspect,
+            "set_parameters": self.set_parameters,
+            "sync": self.sync,
+            "prepare": self.prepare,
+            "run": self.run,
+            "shutdown": self.shutdown,
+        }
+        while not self.done:
+            try:
+                command, args = self.conn.recv()
+            except (EOFError, OSError):  # the supervisor is gone: clean up and leave
+                self.shutdown()
+                return 3
+            handler = handlers.get(command)
+            try:
+                args = receive_segments(self.conn, args)  # the memory a command hands over
+                if self.updates is not None:  # what was set while no loop ran
+                    self.updates()
+                if handler is None:
+                    raise RtcfError(f"the worker does not know the command {command!r}")
+                value = handler(*args)
+            except BaseException as exc:  # every failure goes back; the worker lives on
+                self._send("error", error_to_dict(exc))
+                if not isinstance(exc, Exception):
+                    raise
+            else:
+                self._send("reply", value)
+        return 0
+
+    def _send(self, kind: str, *payload: Any) -> None:
+        try:
+            self.conn.send((kind, *payload))
+        except (BrokenPipeError, ConnectionResetError):
+            pass
+
+    def _runner(self) -> Runner:
+        if self.runner is None:
+            raise RtcfError("the worker has not been set up (no hello)")
+        return self.runner
+
+    # -- commands ----------------------------------------------------------------
+    def hello(
+        self,
+        sys_path: list[str],
+        control_seg: Segment,
+        log_seg: Segment,
+        updates_seg: Segment,
+        settings: RunnerSettings,
+        parameters: dict[str, Any],
+        name: str,
+        simulated: bool,
+        log_level: str,
+        doorbell_fd: int = -1,
+        clock_doorbell_fd: int = -1,
+    ) -> dict[str, Any]:
+        # import components from exactly where the supervisor would
+        sys.path[:] = [p for p in sys_path]
+        if doorbell_fd >= 0:  # inherited: rung after each record for the middleware
+            self.doorbell = Doorbell(doorbell_fd)
+        self.segments += [control_seg, log_seg, updates_seg]
+        words = control_seg.buf[:CLOCK_MAILBOX_OFFSET].cast("q")
+        self._cells = [words[w : w + 1] for w in (CTL_STOP, CTL_RUNNING, CTL_HEARTBEAT, CTL_FAULTS)]
+        words.release()
+        self.stop = StopFlag(self._cells[0])
+        self.log_writer = writer = LogWriter(Ring.open(log_seg.buf))
+        self._update_ring = Ring.open(updates_seg.buf)
+        view = updates_seg.buf[Ring.nbytes(UPDATE_RING_RECORDS, UPDATE_RECORD_SIZE) :]
+        self._outcome_ring = Ring.open(view)
+        view.release()
+        self.settings = settings
+        self.simulated = simulated
+        store = ParameterStore()
+        for key, value in parameters.items():
+            store.set(key, value)
+
+        def emit(level: int, logger: str, text: str, iteration: int, time_ns: int) -> None:
+            writer.push_waiting(level, logger, text, iteration, time_ns, timeout_s=5.0)
+
+        clock: Clock
+        if simulated:
+            clock = SimClock()
+        elif settings.use_sim_time:
+            view = control_seg.buf[CLOCK_MAILBOX_OFFSET:]
+            self.clock_box = Mailbox.open(view)
+            view.release()
+            if clock_doorbell_fd >= 0:  # rung with every /clock message
+                self.clock_doorbell = Doorbell(clock_doorbell_fd)
+            clock = MiddlewareClock(self.clock_box, self.stop.cell, doorbell=self.clock_doorbell)
+        else:
+            clock = MonotonicClock()
+        self.runner = Runner(
+            settings,
+            clock=clock,
+            parameters=store,
+            name=name,
+            log_level=log_level,
+            log_ring=writer,
+            log_emit=emit,
+            stop_flag=self.stop,
+        )
+        running, _, faults = self._cells[1:]
+        running[0] = -1
+        self.runner.running_cell = running
+
+        def parameter_set(name: str, value: Any) -> None:  # a component's params.set()
+            if self._in_loop:  # a hook between two iterations: told after the run
+                self._parameters_set.append((name, value))
+            else:
+                self._send("event", "parameter_set", (name, value))
+
+        store.observer = parameter_set
+
+        def count_fault(fault: Any) -> None:
+            faults[0] += 1
+
+        self.runner.on_fault = count_fault
+
+        def observe(component: str, hook: str) -> None:  # between runs only: a socket send
+            if not self._in_loop:
+                self._send("event", "hook", (component, hook))
+
+        self.runner.hook_observer = observe
+        self.updates = UpdateReader(self._update_ring, self._apply_update)
+        self._applying = 0  # the number of the transition request being applied
+        self.runner.transition_listeners.append(self._report)
+        return {"pid": os.getpid(), "python": sys.version.split()[0]}
+
+    def _apply_update(self, kind: int, component: str, name: str, value: Any) -> None:
+        """An update record (between iterations); a lifecycle transition is answered."""
+        if kind != LIFECYCLE:
+            self._runner().apply_update(kind, component, name, value)
+            return
+        self._applying = int(value)
+        try:
+            outcome = self._runner().apply_update(kind, component, name, value)
+        finally:
+            self._applying = 0
+        if outcome is not None and outcome.result == REFUSED:  # no listener heard of it
+            self._report(component, outcome, int(value))
+
+    def _report(self, component: str, outcome: Any, number: int | None = None) -> None:
+        """Tell the supervisor of a lifecycle change: the answer to its request, or one
+        the runner made itself (a fault policy's). A full ring drops it (counted)."""
+        if self._outcome_ring is not None:
+            request = self._applying if number is None else number
+            self._outcome_ring.push(encode_outcome(request, outcome, component))
+
+    def sync(self) -> None:
+        """Nothing but what every command does first: apply the waiting updates."""
+
+    def load(self, spec: ComponentSpec) -> dict[str, Any]:
+        runner = self._runner()
+        runner.load(spec)
+        return runner.describe_component(spec.full_name)
+
+    def describe_component(self, name: str) -> dict[str, Any]:
+        return self._runner().describe_component(name)
+
+    def introspect(self) -> dict[str, Any]:
+        return self._runner().introspect()
+
+    def set_parameters(self, values: dict[str, Any]) -> None:
+        """Set absolute parameters (a middleware's parameter server), for later loads."""
+        store = self._runner().parameters
+        for name, value in values.items():
+            store.set(name, value)
+
+    def unload(self, name: str) -> None:
+        self._runner().unload(name)
+
+    def activate(self) -> None:
+        self._runner().activate()
+
+    def deactivate(self) -> None:
+        self._runner().deactivate()
+
+    def describe(self) -> dict[str, Any]:
+        runner = self._runner()
+        graph = runner.graph
+        return {
+            "components": list(runner.components),
+            "order": list(graph.order),
+            "warnings": list(graph.warnings),
+            "not_ready": runner.not_ready_reason(),
+            "edges": len(graph.edges),
+        }
+
+    def prepare(self, bridged: bool) -> dict[str, Any]:
+        """Compile the schedule and list the mapped ports; the supervisor sizes channels."""
+        runner = self._runner()
+        ports = mapped_ports(*runner.mapped_ports()) if bridged else []
+        return {"schedule": runner.schedule, "ports": ports}
+
+    def run(
+        self,
+        iterations: int | None,
+        seg: Segment,
+        trace_path: str | None,
+        port_seg: Segment | None = None,
+        ports: list[MappedPort] | None = None,
+    ) -> dict[str, Any]:
+        runner = self._runner()
+        ring = Ring.open(seg.buf)
+        trace = Trace(runner.components, runner.state) if trace_path else None
+        bridge = None
+        if port_seg is not None and ports:
+            bridge = WorkerPorts(
+                port_seg.buf, ports, *runner.mapped_ports(), doorbell=self.doorbell
+            )
+        feeders: list[Callable[[], object]] = [self._updates()]
+        if bridge is not None:
+            feeders += bridge.feeders
+        watch = None
+        timeout = self.settings.heartbeat_timeout
+        if timeout > 0 and not self.simulated and not self.settings.use_sim_time:
+            watch = HeartbeatWatch(self._cells[2], max(2, round(timeout * self.settings.frequency)),
+                                   self._stop())
+            feeders.append(watch)
+        try:
+            if self.realtime is None:  # once per worker: scheduling, affinity, memory
+                self.realtime = apply_realtime(self.settings, simulated=self.simulated)
+            with FrozenGC(self.realtime):
+                runner.start_components()  # before the loop (the outcome ring tells)
+                self._send("event", "started", self.realtime.to_dict())
+                self._in_loop = True
+                result = runner.run(
+                    iterations,
+                    timing_ring=ring,
+                    on_iteration=_after_iteration(trace, bridge),
+                    feeders=feeders,
+                )
+            realtime = self.realtime.to_dict()
+        finally:
+            self._in_loop = False
+            for name, value in self._parameters_set:
+                self._send("event", "parameter_set", (name, value))
+            self._parameters_set.clear()
+            ring.close()
+            seg.close()
+            oversize = bridge.counts() if bridge else {}
+            if bridge is not None:
+                bridge.release()
+            if port_seg is not None:
+                port_seg.close()
+        if trace is not None and trace_path:
+            trace.write(trace_path)
+        if watch is not None and watch.fired:  # the supervisor may be gone: say it here too
+            print(
+                f"rtcf worker (pid {os.getpid()}): no sign of life from the supervisor for "
+                f"{timeout:g} s (heartbeat_timeout) at iteration {runner.state.iteration}; "
+                "stopped the loop through the safe stops",
+                file=sys.stderr,
+                flush=True,
+            )
+        return {
+            "iterations": result.iterations,
+            "stopped_by": result.stopped_by,
+            "rows": result.timing.iterations,
+            "overruns": result.timing.overruns,
+            "order": result.order,
+            "simulated": result.simulated,
+            "realtime": realtime,
+            "last_iteration": runner.state.iteration,
+            "oversize": oversize,
+            "faults": [f.to_dict() for f in result.faults],
+            "safe_stops": [vars(o) for o in result.safe_stops],
+            "heartbeat_lost": bool(watch is not None and watch.fired),
+        }
+
+    def _stop(self) -> StopFlag:
+        if self.stop is None:
+            raise RtcfError("the worker has not been set up (no hello)")
+        return self.stop
+
+    def _updates(self) -> UpdateReader:
+        if self.updates is None:
+            raise RtcfError("the worker has not been set up (no hello)")
+        return self.updates
+
+    def shutdown(self) -> list[dict[str, Any]]:
+        errors: list[dict[str, Any]] = []
+        if self.runner is not None:
+            errors = [error_to_dict(e) for e in self.runner.shutdown()]
+            self.runner = None
+        self.done = True
+        return errors
+
+    def close(self) -> None:
+        if self.log_writer is not None:
+            self.log_writer.release()
+        if self._update_ring is not None:
+            self._update_ring.close()
+        if self._outcome_ring is not None:
+            self._outcome_ring.close()
+        if self.clock_box is not None:
+            self.clock_box.close()
+        for cell in getattr(self, "_cells", ()):
+            cell.release()
+        for seg in self.segments:
+            seg.close()
+        for bell in (self.doorbell, self.clock_doorbell):
+            if bell is not None:
+                bell.close()
+
+
+class HeartbeatWatch:
+    """A feeder: ends the loop (ABORT, so the safe stops run) when the supervisor's
+    heartbeat word has not moved for ``limit`` iterations. A read and a compare per
+    iteration; the supervisor counts up every 10 ms while the loop runs."""
+
+    __slots__ = ("cell", "fired", "last", "left", "limit", "stop")
+
+    def __init__(self, cell: Any, limit: int, stop: StopFlag) -> None:
+        self.cell = cell
+        self.last = cell[0]
+        self.limit = self.left = limit
+        self.stop = stop
+        self.fired = False
+
+    def __call__(self) -> None:
+        beat = self.cell[0]
+        if beat != self.last:
+            self.last = beat
+            self.left = self.limit
+            return
+        self.left -= 1
+        if self.left == 0:
+            self.fired = True
+            self.stop.set(ABORT)
+
+
+def _after_iteration(
+    trace: Trace | None, ports: WorkerPorts | None
+) -> Callable[[], None] | None:
+    """What runs after each iteration, outside its measured time: the trace's sample,
+    and one ring of the supervisor's doorbell when a mapped output was written."""
+    ring = ports.ring_if_pushed if ports is not None and ports.taps else None
+    sample = trace.sample if trace is not None else None
+    if sample is None or ring is None:
+        return sample or ring
+
+    def both() -> None:
+        sample()
+        ring()
+
+    return both
+
+
+PR_SET_PDEATHSIG = 1
+
+
+def _follow_parent(supervisor_pid: int) -> None:
+    """Get SIGTERM when the supervisor dies, so a lost worker never runs on alone."""
+    try:
+        libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6", use_errno=True)
+        libc.prctl(PR_SET_PDEATHSIG, signal.SIGTERM, 0, 0, 0)
+    except (OSError, AttributeError):
+        pass
+    if os.getppid() != supervisor_pid:  # it died before the prctl took effect
+        sys.exit(3)
+
+
+def main(argv: list[str] | None = None) -> int:
+    args = sys.argv[1:] if argv is None else argv
+    if len(args) != 2:
+        usage = f"usage: python -m {WORKER_MODULE} FD SUPERVISOR_PID (started by rtcf)"
+        print(usage, file=sys.stderr)
+        return 2
+    fd, supervisor = int(args[0]), int(args[1])
+    _follow_parent(supervisor)
+    worker = Worker(Connection(fd))
+
+    # Ctrl-C reaches the whole process group and a dying supervisor sends SIGTERM:
+    # either way, end the loop after the iteration and let the hooks run
+    def stop(signum: int, frame: FrameType | None) -> None:
+        if worker.stop is not None:
+            worker.stop.set(ABORT)  # not a normal stop: the safe_stop hooks run
+
+    signal.signal(signal.SIGINT, stop)
+    signal.signal(signal.SIGTERM, stop)
+    try:
+        return worker.serve()
+    finally:
+        worker.close()
+
+
+if __name__ == "__main__":
+    sys.exit(main())

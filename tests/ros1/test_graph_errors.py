@@ -1,0 +1,50 @@
+"""A load that breaks the graph is refused, and the rt_runner runs on with the others.
+
+The original logged a failed dependency resolution and ran an empty loop; an
+rt_runner here refuses the load that closes a cycle (or adds a second producer to a
+topic that is read), with the reason, and keeps the components it had.
+"""
+
+import json
+
+import pytest
+import rospy
+from std_srvs.srv import Trigger
+
+from .._proc import read_rest, wait_for
+from .test_nodes import STARTED, end, launcher, runner
+
+pytestmark = pytest.mark.integration
+
+
+@pytest.fixture(autouse=True)
+def _end_all():
+    yield
+    for proc in reversed(STARTED):  # launchers first, while their runner answers
+        end(proc)
+    STARTED.clear()
+
+
+def loaded(runner_name):
+    answer = rospy.ServiceProxy(f"{runner_name}/introspect", Trigger)()
+    return [c["name"] for c in json.loads(answer.message)["components"]]
+
+
+def test_a_cycle_or_a_second_producer_is_refused_and_the_runner_keeps_running(ros_node):
+    r = runner("/rgraph")
+    x = launcher("/rgraph", "x", "Identity", "in_port:=/b", "out_port:=/a")
+    wait_for(x, "loaded into", timeout=30)
+    y = launcher("/rgraph", "y", "Identity", "in_port:=/a", "out_port:=/b")
+    _, err = read_rest(y, timeout=60)
+    assert y.returncode == 1, err
+    assert "refused to load rtcf_examples.Identity" in err
+    assert "cycle in the data flow: /x -[/a]-> /y -[/b]-> /x" in err
+    ok = launcher("/rgraph", "ok", "Identity", "in_port:=/a", "out_port:=/d")
+    wait_for(ok, "loaded into", timeout=30)
+    # /x writes /a, which /ok reads: a second writer is refused
+    z = launcher("/rgraph", "z", "Identity", "in_port:=/c", "out_port:=/a")
+    _, err = read_rest(z, timeout=60)
+    assert z.returncode == 1, err
+    assert "topic '/a' has 2 producers" in err
+    assert r.poll() is None  # the runner runs on, with what it had
+    assert sorted(loaded("/rgraph")) == ["/ok", "/x"]

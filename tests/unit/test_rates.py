@@ -1,0 +1,147 @@
+"""Components at several rates in one loop, on a simulated clock: deterministic."""
+
+from __future__ import annotations
+
+from typing import Any
+
+import pytest
+
+import rtcf
+from rtcf import ComponentSpec, FlowStatus
+from rtcf._core._executor import compile_plans, hyperperiod
+from rtcf._core._rates import Rate, spread
+from rtcf._core._timing import FIXED_COLUMNS as F
+from rtcf.testing import run_components
+
+
+class Counter(rtcf.Component):
+    """Writes the iteration it runs in."""
+
+    def configure(self) -> None:
+        self.out = self.add_output("count", float)
+        self.ran: list[int] = []
+
+    def update(self) -> None:
+        self.ran.append(self.iteration)
+        self.out.write(float(self.iteration))
+
+
+class Slow(rtcf.Component):
+    """Copies the count to ``held`` (run at a lower rate)."""
+
+    def configure(self) -> None:
+        self.inp = self.add_input("count", float)
+        self.out = self.add_output("held", float)
+        self.ran: list[int] = []
+
+    def update(self) -> None:
+        self.ran.append(self.iteration)
+        self.out.write(self.inp.read())
+
+
+class Reader(rtcf.Component):
+    """Reads ``held`` every iteration: value, the iteration it was written in, status."""
+
+    def configure(self) -> None:
+        self.inp = self.add_input("held", float)
+        self.seen: list[tuple[int, Any, int, FlowStatus]] = []
+
+    def update(self) -> None:
+        status = self.inp.status
+        value = self.inp.read()
+        self.seen.append((self.iteration, value, self.inp.iteration, status))
+
+
+def _specs(**slow: Any) -> list[ComponentSpec]:
+    return [
+        ComponentSpec("counter", Counter),
+        ComponentSpec("slow", Slow, rate=Rate(**slow)),
+        ComponentSpec("reader", Reader),
+    ]
+
+
+def test_a_slow_component_runs_at_its_place_and_readers_see_which_iteration() -> None:
+    trace = run_components(_specs(every=4, phase=1), iterations=10)
+    slow = trace.components["/slow"]
+    assert slow.ran == [1, 5, 9]
+    assert trace.components["/counter"].ran == list(range(10))
+    seen = trace.components["/reader"].seen
+    # at its place in the order: in iteration 1 the reader sees the value of 1
+    assert seen[0] == (0, None, -1, FlowStatus.NO_DATA)
+    assert seen[1] == (1, 1.0, 1, FlowStatus.NEW_DATA)
+    assert seen[2] == (2, 1.0, 1, FlowStatus.OLD_DATA)
+    assert seen[4] == (4, 1.0, 1, FlowStatus.OLD_DATA)
+    assert seen[5] == (5, 5.0, 5, FlowStatus.NEW_DATA)
+    assert trace.outputs["/held"] == [None, 1.0, 1.0, 1.0, 1.0, 5.0, 5.0, 5.0, 5.0, 9.0]
+
+
+def test_a_rate_in_hz_is_a_divider_of_the_runners_frequency() -> None:
+    trace = run_components(_specs(rate=250.0, phase=0), iterations=9, frequency=1000.0)
+    assert trace.components["/slow"].ran == [0, 4, 8]
+
+
+def test_a_rate_that_does_not_divide_is_an_error_naming_both_and_the_nearest() -> None:
+    with pytest.raises(rtcf.ComponentError) as info:
+        run_components(_specs(rate=300.0), iterations=1, frequency=1000.0)
+    assert str(info.value) == (
+        "component '/slow': rate 300 Hz does not divide the runner's frequency 1000 Hz; "
+        "the nearest rates that do are 333.333 Hz (every:=3) or 250 Hz (every:=4)"
+    )
+    with pytest.raises(rtcf.ComponentError, match="phase 4 must be below every=4"):
+        run_components(_specs(every=4, phase=4), iterations=1)
+
+
+def test_traces_are_identical_run_after_run() -> None:
+    a = run_components(_specs(every=3), iterations=30)
+    b = run_components(_specs(every=3), iterations=30)
+    assert a.outputs == b.outputs and a.components["/reader"].seen == b.components[
+        "/reader"
+    ].seen
+
+
+def test_the_runner_spreads_slow_components_over_the_phases() -> None:
+    names = ["a", "b", "c", "fast"]
+    rates = spread(names, [(2, None), (2, None), (4, None), (1, None)], [5.0, 4.0, 3.0, 1.0])
+    assert rates == [(2, 0), (2, 1), (4, 1), (1, 0)]
+    # the worst iteration carries one slow component, not two
+    loads = [sum(c for (e, p), c in zip(rates, [5, 4, 3, 1], strict=True) if (i - p) % e == 0)
+             for i in range(4)]
+    assert max(loads) == 8 and loads == [6, 8, 6, 5]
+
+
+def test_a_fixed_phase_is_kept_and_others_avoid_it() -> None:
+    assert spread(["x", "y"], [(2, 0), (2, None)], [10.0, 10.0]) == [(2, 0), (2, 1)]
+
+
+def test_one_plan_per_phase_selected_by_the_iteration() -> None:
+    calls: list[str] = []
+    updates = [lambda: calls.append("a"), lambda: calls.append("b")]
+    plans = compile_plans(updates, [True, True], [(1, 0), (3, 2)])
+    assert len(plans) == hyperperiod([(1, 0), (3, 2)]) == 3
+    assert [len(p.steps) for p in plans] == [1, 1, 2]
+    assert [p.skipped for p in plans] == [(F + 1,), (F + 1,), ()]
+
+
+def test_deactivating_a_slow_component_takes_it_out_of_every_phase() -> None:
+    runner = rtcf.Runner(rtcf.RunnerSettings(frequency=100.0), clock=rtcf.SimClock())
+    for spec in _specs(every=2, phase=0):
+        runner.load(spec)
+    runner.run(4)
+    assert runner.components["/slow"].ran == [0, 2]
+    assert runner.change_state("/slow", "deactivate").ok
+    runner.run(4)
+    assert runner.components["/slow"].ran == [0, 2]
+    assert runner.change_state("/slow", "activate").ok
+    runner.run(4)
+    assert runner.components["/slow"].ran == [0, 2, 8, 10]
+    runner.shutdown()
+
+
+def test_rate_parameters_from_a_launcher() -> None:
+    assert Rate.from_params({"rate": "100", "phase": 2, "cost_us": 30}, "/c") == Rate(
+        100.0, 0, 2, 30.0
+    )
+    with pytest.raises(rtcf.ConfigurationError, match="give rate or every, not both"):
+        Rate.from_params({"rate": 100.0, "every": 2}, "/c")
+    with pytest.raises(rtcf.ConfigurationError, match=r"every is 2\.5, which is not a whole"):
+        Rate.from_params({"every": 2.5}, "/c")
