@@ -117,8 +117,14 @@ class _NoSleepClock:
         pass
 
 
-def _fig1_runner() -> Any:
-    """Fig. 1 in a Runner through the public API, wired as paper_evaluation.launch."""
+# the multi-rate case: Fig. 1 with R1, R2 and R3 every 2nd iteration (phases spread by
+# the runner), so that iterations alternate between 5 and 2 or 3 updates
+SLOW = {"R1": 2, "R2": 2, "R3": 2}
+
+
+def _fig1_runner(every: dict[str, int] | None = None) -> Any:
+    """Fig. 1 in a Runner through the public API, wired as paper_evaluation.launch;
+    ``every`` gives some components a lower rate (a divider)."""
     import rtcf
 
     runner = rtcf.Runner(
@@ -134,9 +140,15 @@ def _fig1_runner() -> Any:
                 class_name=node.cls,
                 remaps=node.remaps,
                 is_first=is_first,
+                rate=rtcf.Rate(every=(every or {}).get(node.name, 1)),
             )
         )
     return runner
+
+
+def _phase_calls(runner: Any) -> list[list[Callable[[], object]]]:
+    """The updates each phase of the hyperperiod runs, as the executor's plans say."""
+    return [[u for _, u in plan.steps] for plan in runner._executor.plans]
 
 
 def best_ns_per_iteration(fn: Callable[[int], object], n: int, repeats: int) -> float:
@@ -195,10 +207,47 @@ def tight_loops(quick: bool) -> dict[str, Any]:
             ),
         }
         out["rtcf recorded calc p50 [µs] (no sleep)"] = runner.run(n_rtcf).timing.calc_us["p50"]
+        # several rates: the same components, R1-R3 every 2nd iteration; against the
+        # same calls made by hand in the same pattern, the framework's share
+        slow = _fig1_runner(SLOW)
+        try:
+            slow.run(1000)
+            phases = _phase_calls(slow)
+
+            def slow_components_only(n: int) -> None:
+                h = len(phases)
+                for i in range(n):
+                    for u in phases[i % h]:
+                        u()
+
+            def slow_executor(n: int) -> None:
+                slow.run(n, drain_logs_every_iteration=False)
+
+            out["several rates: hyperperiod"] = len(phases)
+            out["several rates: updates per phase"] = [len(p) for p in phases]
+            out["several rates: the same update calls only"] = best_ns_per_iteration(
+                slow_components_only, n_rtcf, repeats
+            )
+            out["several rates: Executor (Runner.run, no sleep, no log drain)"] = (
+                best_ns_per_iteration(slow_executor, n_rtcf, repeats)
+            )
+            phase_calc = slow.run(n_rtcf).timing.phases_us
+            for phase, stats in phase_calc.items():
+                out[f"several rates: recorded calc p50 of phase {phase} [µs]"] = stats["p50"]
+        finally:
+            slow.shutdown()
     finally:
         os.sched_setscheduler(0, policy, param)
         os.sched_setaffinity(0, affinity)
         runner.shutdown()
+    single = out["rtcf: Executor (Runner.run, no sleep, no log drain)"] - out[
+        "rtcf: the five Mimo.update calls only"
+    ]
+    several = out["several rates: Executor (Runner.run, no sleep, no log drain)"] - out[
+        "several rates: the same update calls only"
+    ]
+    out["framework share per iteration, one rate"] = single
+    out["framework share per iteration, several rates"] = several
     return out
 
 
@@ -235,11 +284,12 @@ def main() -> int:
         f"Steal time on CPU {c.RT_CPU} (/proc/stat): rtcf {c.fmt(run.steal_ms, 0)} ms, "
         f"plain loop {c.fmt(plain['steal_ms'], 0)} ms"
     )
-    micro_rows = [
-        [k, c.fmt(v, 0) if "[µs]" not in k else c.fmt(v, 2)]
-        for k, v in tight.items()
-        if k != "conditions"
-    ]
+    def cell(key: str, v: Any) -> str:
+        if isinstance(v, (int, list)):
+            return str(v)
+        return c.fmt(v, 2) if "[µs]" in key else c.fmt(v, 0)
+
+    micro_rows = [[k, cell(k, v)] for k, v in tight.items() if k != "conditions"]
     micro_table = c.table(["in-process, no sleeping", "ns per iteration"], micro_rows)
     print(f"machine: {c.machine_line(machine)}")
     print(f"Fig. 1 at {FREQUENCY:g} Hz, {duration:g} s each, idle; target ≤ {TARGET_RATIO}x")

@@ -15,6 +15,7 @@ from ._core._params import ParameterStore as ParameterStore
 from ._core._ports import FlowStatus as FlowStatus
 from ._core._ports import InputPort as InputPort
 from ._core._ports import OutputPort as OutputPort
+from ._core._rates import Rate as Rate
 from ._core._runner import ComponentSpec as ComponentSpec
 from ._core._runner import Runner as Runner
 from ._core._runner import RunResult as RunResult

@@ -35,6 +35,7 @@ from ._core._params import ParameterStore
 from ._core._ports import InputPort
 from ._core._runner import ComponentSpec, Runner, RunResult
 from ._core._settings import RunnerSettings
+from ._core._timing import COL_ITERATION, FIXED_COLUMNS, local_ring
 from ._core._trace import Trace as _Recorder
 from ._launch._files import load_deployment
 
@@ -57,12 +58,15 @@ class Trace:
     before its first write). ``components`` are the instances that ran (full name ->
     component), stopped and cleaned up by now; look inside them as you like.
     ``warnings`` are those ``rtcf launch`` would print (the launch file's, the graph's).
+    ``ran[name]`` lists the iterations in which a component's ``update`` ran (read
+    from the loop's timing rows: components at a lower rate, or inactive, skip some).
     """
 
     iterations: list[int] = field(default_factory=list)
     times: list[float] = field(default_factory=list)  # scheduled start: components' self.time
     outputs: dict[str, list[Any]] = field(default_factory=dict)  # topic -> value per iteration
     components: dict[str, Component] = field(default_factory=dict)  # full name -> instance
+    ran: dict[str, list[int]] = field(default_factory=dict)  # name -> iterations it ran in
     warnings: list[str] = field(default_factory=list)
     result: RunResult | None = None  # timing counts, order, contained faults, safe stops
 
@@ -185,13 +189,26 @@ def _run(
             runner.activate()  # nothing else would trigger it here
         recorder: list[_Recorder] = []
         state = runner.state
+        schedule = runner.schedule
+        ran: dict[str, list[int]] = {name: [] for name in schedule}
+        trace.ran = ran
+        ran_columns = list(enumerate(ran.values(), start=FIXED_COLUMNS))
+        timing = local_ring(len(schedule), 16)
 
         def record() -> None:  # after each iteration, outside its measured time
             if not recorder:  # created once the runner has wired the slots
                 recorder.append(_Recorder(components, state))
             recorder[0].sample()
+            while (row := timing.pop()) is not None:
+                words = memoryview(row).cast("q")
+                for column, ran_in in ran_columns:
+                    if words[column] >= 0:  # -1: skipped (another phase, or inactive)
+                        ran_in.append(words[COL_ITERATION])
+                words.release()
 
-        trace.result = runner.run(iterations, on_iteration=record, feeders=feeders)
+        trace.result = runner.run(
+            iterations, on_iteration=record, feeders=feeders, timing_ring=timing
+        )
     finally:
         errors = runner.shutdown()
     if errors:

@@ -5,22 +5,28 @@ Load them from a launch file with ``args="rtcf_examples ClassName"``.
 
 from ._components import (
     BareMinimum,
+    DcMotor,
     FirstOrderPlant,
     Identity,
     Logging,
     Mimo,
     PaperExample,
     ParameterHandling,
+    Pid,
     Sine,
+    StepSupervisor,
 )
 
 __all__ = [
     "BareMinimum",
+    "DcMotor",
     "FirstOrderPlant",
     "Identity",
     "Logging",
     "Mimo",
     "PaperExample",
     "ParameterHandling",
+    "Pid",
     "Sine",
+    "StepSupervisor",
 ]

@@ -188,3 +188,105 @@ class FirstOrderPlant(rtcf.Component):
         self.y += self.alpha * (self.gain * u - self.y)
         self.y_out.write(self.y)
         self.minus_y.write(-self.y)
+
+
+class Pid(rtcf.Component):
+    """A PID controller: ``command = kp e + ki integral(e) + kd de/dt``.
+
+    ``e = setpoint - measured``.
+
+    It integrates and differentiates over its own period (``self.period``), so the same
+    class serves a 2 kHz velocity loop and a 500 Hz position loop: the launcher's
+    ``rate`` (or ``every``) is all that differs. The command is clamped to
+    ``+-limit``; while it is, the integral stops growing (anti-windup). The gains are
+    tunable while it runs. Inputs without a value yet count as 0.
+    """
+
+    def configure(self) -> None:
+        self.setpoint = self.add_input("setpoint", float)
+        self.measured = self.add_input("measured", float)
+        self.command = self.add_output("command", float)
+        self.kp = self.params.declare("kp", 1.0, description="proportional gain")
+        self.ki = self.params.declare("ki", 0.0, description="integral gain [1/s]")
+        self.kd = self.params.declare("kd", 0.0, description="derivative gain [s]")
+        self.limit = float(self.params.get("~limit", math.inf))
+        self.integral = 0.0
+        self.previous_error: float | None = None
+
+    def start(self) -> None:
+        self.integral = 0.0
+        self.previous_error = None
+
+    def update(self) -> None:
+        error = (self.setpoint.read() or 0.0) - (self.measured.read() or 0.0)
+        dt = self.period
+        derivative = 0.0 if self.previous_error is None else (error - self.previous_error) / dt
+        self.previous_error = error
+        integral = self.integral + error * dt
+        u = self.kp.value * error + self.ki.value * integral + self.kd.value * derivative
+        if -self.limit <= u <= self.limit:
+            self.integral = integral
+        else:
+            u = math.copysign(self.limit, u)
+        self.command.write(u)
+
+
+class DcMotor(rtcf.Component):
+    """A simulated motor with a load: ``J dw/dt = torque - b w``, ``d(angle)/dt = w``.
+
+    Integrated (semi-implicit Euler) over its own period; writes ``position`` [rad]
+    and ``velocity`` [rad/s]. It stands where a hardware interface would: first in
+    the order (``is_first``), it writes what it measured and reads the command that
+    the controllers wrote in the iteration before.
+    """
+
+    def configure(self) -> None:
+        self.torque = self.add_input("torque", float)
+        self.position = self.add_output("position", float)
+        self.velocity = self.add_output("velocity", float)
+        self.inertia = float(self.params.get("~inertia", 0.01))
+        self.damping = float(self.params.get("~damping", 0.05))
+        self.w = 0.0
+        self.angle = 0.0
+
+    def update(self) -> None:
+        dt = self.period
+        torque = self.torque.read() or 0.0
+        self.w += dt * (torque - self.damping * self.w) / self.inertia
+        self.angle += dt * self.w
+        self.position.write(self.angle)
+        self.velocity.write(self.w)
+
+
+class StepSupervisor(rtcf.Component):
+    """The slow top of a cascade: a position setpoint that steps between ``~low`` and
+    ``~high`` every ``~hold_s`` seconds, and the tracking error it watches.
+
+    Writes ``setpoint`` and ``tracking_error`` (setpoint - position, as this
+    component saw it); logs a warning when the error stays above ``~max_error`` for
+    longer than ``~hold_s`` (a step the loops below did not follow).
+    """
+
+    def configure(self) -> None:
+        self.position = self.add_input("position", float)
+        self.setpoint = self.add_output("setpoint", float)
+        self.tracking_error = self.add_output("tracking_error", float)
+        self.low = float(self.params.get("~low", 0.0))
+        self.high = float(self.params.get("~high", 1.0))
+        self.hold_s = float(self.params.get("~hold_s", 0.5))
+        self.max_error = float(self.params.get("~max_error", math.inf))
+        self.off_since: float | None = None
+
+    def update(self) -> None:
+        t = self.time
+        target = self.high if int(t / self.hold_s) % 2 == 0 else self.low
+        error = target - (self.position.read() or 0.0)
+        self.setpoint.write(target)
+        self.tracking_error.write(error)
+        if abs(error) <= self.max_error:
+            self.off_since = None
+        elif self.off_since is None:
+            self.off_since = t
+        elif t - self.off_since > self.hold_s:
+            self.log.warning("tracking error %.3f for %.2f s", error, t - self.off_since)
+            self.off_since = t

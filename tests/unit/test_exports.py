@@ -13,6 +13,7 @@ from rtcf._core import (
     _log,
     _params,
     _ports,
+    _rates,
     _runner,
     _settings,
 )
@@ -33,6 +34,7 @@ EXPECTED = {
     "FlowStatus": _ports.FlowStatus,
     "InputPort": _ports.InputPort,
     "OutputPort": _ports.OutputPort,
+    "Rate": _rates.Rate,
     "ComponentSpec": _runner.ComponentSpec,
     "Runner": _runner.Runner,
     "RunResult": _runner.RunResult,

@@ -145,3 +145,54 @@ def test_rate_parameters_from_a_launcher() -> None:
         Rate.from_params({"rate": 100.0, "every": 2}, "/c")
     with pytest.raises(rtcf.ConfigurationError, match=r"every is 2\.5, which is not a whole"):
         Rate.from_params({"every": 2.5}, "/c")
+
+
+class Integrator(rtcf.Component):
+    """Integrates 1.0 over its own period: after n runs, n * period."""
+
+    def configure(self) -> None:
+        self.out = self.add_output("integral", float)
+        self.total = 0.0
+
+    def update(self) -> None:
+        self.total += self.period
+        self.out.write(self.total)
+
+
+def test_a_slow_components_period_and_frequency_are_its_own() -> None:
+    spec = ComponentSpec("i", Integrator, rate=Rate(rate=250.0, phase=0))
+    trace = run_components([spec], iterations=8, frequency=1000.0)
+    comp = trace.components["/i"]
+    assert comp.every == 4 and comp.frequency == 250.0 and comp.period == pytest.approx(0.004)
+    # two runs (iterations 0 and 4) over 8 ms of loop time: the integral is 8 ms
+    assert trace.outputs["/integral"][-1] == pytest.approx(0.008)
+
+
+def test_a_slow_component_loaded_between_runs_keeps_the_loops_phases() -> None:
+    runner = rtcf.Runner(rtcf.RunnerSettings(frequency=100.0), clock=rtcf.SimClock())
+    runner.load(ComponentSpec("counter", Counter))
+    runner.run(3)
+    runner.load(ComponentSpec("slow", Slow, rate=Rate(every=4, phase=2)))
+    runner.run(8)  # iterations 3..10: the phase counts from the loop's first iteration
+    assert runner.components["/slow"].ran == [6, 10]
+    runner.unload("/slow")
+    runner.run(2)
+    assert runner.components["/counter"].ran == list(range(13))
+    runner.shutdown()
+
+
+def test_timing_reports_each_phase_and_each_component_where_it_ran() -> None:
+    # simulated cost: every update costs 1 us of simulated time
+    clock = rtcf.SimClock(cost_ns=lambda n: 1000)
+    runner = rtcf.Runner(rtcf.RunnerSettings(frequency=100.0), clock=clock)
+    for spec in _specs(every=2, phase=1):
+        runner.load(spec)
+    result = runner.run(10)
+    agg = result.aggregate
+    assert agg is not None
+    assert agg.components["/slow"].count == 5 and agg.components["/reader"].count == 10
+    assert sorted(agg.phases) == [0, 1]
+    assert agg.phases[0].count == agg.phases[1].count == 5
+    # the phase the slow component runs in costs one update more
+    assert agg.phases[1].max - agg.phases[0].max == 1000
+    runner.shutdown()

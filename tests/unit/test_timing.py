@@ -67,14 +67,16 @@ def _push_rows(ring: Ring, rows: list[list[int]]) -> None:
         assert ring.push(record.tobytes())
 
 
-def _row(i: int, jitter: int, calc: int, per: list[int], overran: int = 0) -> list[int]:
-    return [i, i * 1000, jitter, calc, overran, *per]
+def _row(
+    i: int, jitter: int, calc: int, per: list[int], overran: int = 0, phase: int = 0
+) -> list[int]:
+    return [i, i * 1000, jitter, calc, overran, phase, *per]
 
 
 def test_row_size_and_capacity_budget() -> None:
     assert row_size(0) == 8 * FIXED_COLUMNS
-    assert row_size(5) == 80
-    assert ring_capacity(5) == 1 << 16  # 16 MiB is far more than 2^16 rows of 80 bytes
+    assert row_size(5) == 88
+    assert ring_capacity(5) == 1 << 16  # 16 MiB is far more than 2^16 rows of 88 bytes
     assert ring_capacity(1000) == 2048
     assert ring_capacity(10**6) == 256  # never fewer than 256 rows
 
@@ -96,6 +98,31 @@ def test_aggregate_counts_quantiles_and_components() -> None:
     assert s.components_us["/a"]["max"] == 0.5
     assert s.components_us["/b"]["max"] == 6.0
     assert s.coverage_note() == ""
+    assert s.phases_us == {}  # one rate: no table per phase
+    assert "phases" not in agg.histograms()
+
+
+def test_aggregate_per_phase_and_per_component_only_where_it_ran() -> None:
+    # hyperperiod 3: /slow runs in phase 1 only (-1 elsewhere), and costs 9 us there
+    ring = local_ring(2, 16)
+    rows = [
+        _row(i, 0, 2000 + (9000 if i % 3 == 1 else 0), [2000, 9000 if i % 3 == 1 else -1], 0, i % 3)
+        for i in range(9)
+    ]
+    _push_rows(ring, rows[:4])
+    agg = TimingAggregate()
+    agg.consume(ring, ["/fast", "/slow"])
+    _push_rows(ring, rows[4:])  # a second batch: histograms per phase keep adding up
+    agg.consume(ring, ["/fast", "/slow"])
+    s = agg.summary()
+    assert sorted(s.phases_us) == [0, 1, 2]
+    assert s.phases_us[1]["min"] == s.phases_us[1]["max"] == 11.0
+    assert s.phases_us[0]["max"] == s.phases_us[2]["max"] == 2.0
+    assert [agg.phases[p].count for p in range(3)] == [3, 3, 3]
+    assert agg.components["/slow"].count == 3  # only the iterations it ran in
+    assert s.components_us["/slow"]["min"] == 9.0
+    assert agg.components["/fast"].count == 9
+    assert sorted(agg.histograms()["phases"]) == ["0", "1", "2"]
 
 
 def test_aggregate_drains_across_the_wrap_and_counts_drops() -> None:

@@ -43,6 +43,8 @@ def format_summary(result: RunResult, settings: RunnerSettings, wall_s: float) -
     lines.append(row("calculation (iteration)", t.calc_us))
     for name, stats in t.components_us.items():
         lines.append(row(f"  {name}", stats))
+    for phase, stats in t.phases_us.items():  # several rates: per phase of the hyperperiod
+        lines.append(row(f"calculation (phase {phase})", stats))
     note = t.coverage_note()
     if note:
         lines.append(f"  ({note})")
@@ -69,6 +71,11 @@ def timing_document(result: RunResult, settings: RunnerSettings, wall_s: float) 
         "components": {
             name: {"calc_us": {k: stats.get(k) for k in keep}}
             for name, stats in t.components_us.items()
+        },
+        # several rates: the iteration's calculation time per phase of the hyperperiod
+        "phases": {
+            str(phase): {"calc_us": {k: stats.get(k) for k in keep}}
+            for phase, stats in t.phases_us.items()
         },
         "samples": t.samples,
         "timing_rows_dropped": t.iterations - t.samples if not result.simulated else 0,

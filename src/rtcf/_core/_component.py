@@ -47,6 +47,7 @@ class Component:
     _rtcf_inputs: dict[str, InputPort[Any]]
     _rtcf_outputs: dict[str, OutputPort[Any]]
     _rtcf_configured: bool
+    _rtcf_every: int = 1  # runs every this many iterations (its launcher's rate or every)
     # while configure runs again (lifecycle): the port names declared so far
     _rtcf_redeclared: set[str] | None = None
 
@@ -204,13 +205,20 @@ class Component:
 
     @property
     def frequency(self) -> float:
-        """The loop's frequency in Hz."""
-        return self._rtcf_state.frequency
+        """How often this component runs, in Hz: the loop's frequency, divided by its
+        ``every`` when its launcher gives it a slower rate."""
+        return self._rtcf_state.frequency / self._rtcf_every
 
     @property
     def period(self) -> float:
-        """The loop's period in seconds."""
-        return self._rtcf_state.period_ns * 1e-9
+        """The time between two runs of this component in seconds: the loop's period
+        times ``every`` (what a controller integrates or differentiates over)."""
+        return self._rtcf_state.period_ns * self._rtcf_every * 1e-9
+
+    @property
+    def every(self) -> int:
+        """It runs every this many iterations of the loop (1: every iteration)."""
+        return self._rtcf_every
 
     def __repr__(self) -> str:
         return f"<{type(self).__name__} {self.full_name}>"
@@ -226,6 +234,7 @@ def _attach(
     ring: RecordSink,
     state: LoopState,
     emit: Callable[[int, str, str, int, int], None] | None = None,
+    every: int = 1,
 ) -> None:
     """Give ``component`` its identity and its access to the runner (before __init__)."""
     component.name = name
@@ -238,6 +247,7 @@ def _attach(
     component._rtcf_inputs = {}
     component._rtcf_outputs = {}
     component._rtcf_configured = False
+    component._rtcf_every = every
 
 
 def overrides(component: Component, hook: str) -> bool:

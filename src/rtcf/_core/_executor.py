@@ -10,8 +10,9 @@ active components. Changing that set (a lifecycle transition, later a fault poli
 that takes a component and its downstream out) compiles a new plan and swaps it in
 between two iterations: the loop reads ``executor.plan`` once per iteration, after
 the feeders (which is where a transition that arrived from the supervisor is
-applied), and has no per-component test. Components at several rates would get one
-plan per phase, chosen by the iteration's index, in the same place.
+applied), and has no per-component test. Components at several rates
+(:mod:`rtcf._core._rates`) give one plan per phase of the hyperperiod: iteration
+``i`` runs ``plans[i % len(plans)]``, one index, and the timing row says which.
 """
 
 from __future__ import annotations
@@ -26,7 +27,15 @@ from typing import NamedTuple
 from ._clock import Clock
 from ._faults import WatchdogTripped
 from ._loop_state import LoopState
-from ._timing import COL_CALC, COL_ITERATION, COL_JITTER, COL_OVERRAN, COL_SCHEDULED, TimingWriter
+from ._timing import (
+    COL_CALC,
+    COL_ITERATION,
+    COL_JITTER,
+    COL_OVERRAN,
+    COL_PHASE,
+    COL_SCHEDULED,
+    TimingWriter,
+)
 from ._timing import FIXED_COLUMNS as F
 
 STOP = 1  # end the loop: the user asked for it
@@ -248,7 +257,8 @@ class Executor:
                     t = now()
                 # read after the feeders (a swap applies now); one plan per phase
                 plans = self.plans
-                steps, skipped = plans[i % len(plans)]
+                phase = i % len(plans)
+                steps, skipped = plans[phase]
                 for k, update in steps:
                     running[0] = k
                     update()
@@ -263,6 +273,7 @@ class Executor:
                 row[b + COL_SCHEDULED] = deadline
                 row[b + COL_JITTER] = t0 - deadline
                 row[b + COL_CALC] = t - t0
+                row[b + COL_PHASE] = phase
                 deadline += period
                 if t > deadline:
                     overruns += 1

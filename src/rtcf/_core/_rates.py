@@ -131,19 +131,54 @@ def spread(
 
 
 def plan_table(
-    names: Sequence[str], rates: Sequence[tuple[int, int]], costs: Sequence[float]
-) -> tuple[list[str], float]:
-    """The plan as text (iteration mod hyperperiod x components) and its worst cost."""
+    names: Sequence[str],
+    rates: Sequence[tuple[int, int]],
+    costs: Sequence[float],
+    frequency: float,
+) -> list[str]:
+    """The plan as text: one row per component, one column per phase of the
+    hyperperiod (``x``: it runs in that iteration), then the declared cost of each
+    phase, grouped, and the worst one."""
     h = 1
     for every, _ in rates:
         h = h * every // math.gcd(h, every)
-    width = max([len(n) for n in names] + [9])
-    lines = [f"{'phase':>5}  " + "  ".join(f"{n:<{width}}" for n in names) + "  cost [us]"]
-    worst = 0.0
-    for p in range(h):
-        runs = [(p - phase) % every == 0 for every, phase in rates]
-        cost = sum(c for c, r in zip(costs, runs, strict=True) if r)
-        worst = max(worst, cost)
-        cells = "  ".join(f"{'x' if r else '.':<{width}}" for r in runs)
-        lines.append(f"{p:>5}  {cells}  {cost:g}")
-    return lines, worst
+    runs = [[(p - phase) % every == 0 for p in range(h)] for every, phase in rates]
+    cost = [sum(c for c, r in zip(costs, col, strict=True) if r) for col in zip(*runs, strict=True)]
+    width = max(len(n) for n in names)
+    lines = [
+        f"rates: the schedule repeats every {h} iterations ({h / frequency * 1e3:g} ms); "
+        "x: the component runs in that phase (iteration mod {h})".replace("{h}", str(h))
+    ]
+    block = 50
+    for start in range(0, h, block):
+        stop = min(h, start + block)
+        ticks = "".join(str(p // 10 % 10) if p % 10 == 0 else " " for p in range(start, stop))
+        units = "".join(str(p % 10) for p in range(start, stop))
+        lines.append(f"  {'phase':<{width}}  {ticks}".rstrip())
+        header = "  every  phase  cost_us" if start == 0 else ""
+        lines.append(f"  {'':<{width}}  {units}{header}")
+        for n, (every, phase), c, row in zip(names, rates, costs, runs, strict=True):
+            cells = "".join("x" if r else "." for r in row[start:stop])
+            extra = f"  {every:>5}  {phase:>5}  {c:>7g}" if start == 0 else ""
+            lines.append(f"  {n:<{width}}  {cells}{extra}")
+    groups: dict[float, list[int]] = {}
+    for p, c in enumerate(cost):
+        groups.setdefault(c, []).append(p)
+    parts = []
+    for c in sorted(groups, reverse=True):
+        phases = groups[c]
+        shown = ", ".join(map(str, phases[:4])) + (", ..." if len(phases) > 4 else "")
+        parts.append(f"{c:g} in {len(phases)} phase{'s' if len(phases) > 1 else ''} ({shown})")
+    lines.append("  declared cost per iteration [us] (cost_us), worst first: " + "; ".join(parts))
+    return lines
+
+
+def worst_cost(rates: Sequence[tuple[int, int]], costs: Sequence[float]) -> float:
+    """The declared cost of the most expensive iteration of the hyperperiod."""
+    h = 1
+    for every, _ in rates:
+        h = h * every // math.gcd(h, every)
+    return max(
+        sum(c for (every, phase), c in zip(rates, costs, strict=True) if (p - phase) % every == 0)
+        for p in range(h)
+    )

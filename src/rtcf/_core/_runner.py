@@ -121,8 +121,8 @@ class RunResult:
     order: list[str]
     log_records_dropped: int
     simulated: bool
-    # filled in by a supervisor: what the worker applied, and the full histograms
-    realtime: dict[str, Any] | None = None
+    realtime: dict[str, Any] | None = None  # what a worker applied (by a supervisor)
+    # the full histograms (a supervisor's, or the runner's own local ring's)
     aggregate: TimingAggregate | None = None
     faults: list[Fault] = field(default_factory=list)  # failures contained by a policy
     safe_stops: list[SafeStopOutcome] = field(default_factory=list)
@@ -215,7 +215,7 @@ class Runner:
                 f"regular expression: {exc}"
             ) from None
         try:  # a rate that does not divide the frequency: say so before configure runs
-            spec.rate.divider(self.settings.frequency, full)
+            every, _ = spec.rate.divider(self.settings.frequency, full)
         except ConfigurationError as exc:
             raise ComponentError(exc.message, component=full, file=file, line=line) from None
         cls = spec.cls
@@ -241,6 +241,7 @@ class Runner:
             ring=self.log_ring,
             state=self.state,
             emit=self._log_emit,
+            every=every,
         )
         component.log.set_level(self.log_level if spec.log_level is None else spec.log_level)
         try:
@@ -754,6 +755,7 @@ class Runner:
             order=list(self.graph.order),
             log_records_dropped=self.log_ring.dropped,
             simulated=bool(getattr(self.clock, "simulated", False)),
+            aggregate=aggregate,
             faults=self.faults[faults_before:],
             safe_stops=list(self.safe_stops),
         )
@@ -922,15 +924,15 @@ class Runner:
         ]
         return outputs, inputs
 
-    def rate_plan(self) -> tuple[list[str], float] | None:
-        """The multi-rate plan as a table (phase x components) and its worst iteration's
-        declared cost, or None when every component runs every iteration."""
+    def rate_plan(self) -> list[str] | None:
+        """The multi-rate plan as a table (components x phases of the hyperperiod) with
+        each phase's declared cost, or None when every component runs every iteration."""
         if self._executor is None:
             self._executor = self._compile()
         if all(every == 1 for every, _ in self._rates):
             return None
         costs = [self._loaded[n].spec.rate.cost_us for n in self._schedule]
-        return plan_table(self._schedule, self._rates, costs)
+        return plan_table(self._schedule, self._rates, costs, self.settings.frequency)
 
     @property
     def schedule(self) -> list[str]:

@@ -2,8 +2,10 @@
 
 The loop (producer) writes every iteration's row into a :class:`~rtcf._core._rings.Ring`
 of fixed-size int64 records: iteration, scheduled start, wake-up jitter, calculation
-time, whether it overran, then one calculation time per scheduled component (-1 in
-an iteration the component did not run in: inactive; not counted). In
+time, whether it overran, the phase of the hyperperiod (which plan ran: 0 when all
+components run at the loop's rate), then one calculation time per scheduled
+component (-1 in an iteration the component did not run in: inactive or not its
+phase; not counted). In
 the worker process the ring lives in shared memory and the supervisor drains it
 (:class:`TimingAggregate`) into log-linear histograms, so a run of any length keeps
 exact counts, min and max and quantiles within 0.8 %. A row that finds the ring
@@ -27,8 +29,8 @@ QUANTILES = (("p50", 0.5), ("p90", 0.9), ("p99", 0.99), ("p999", 0.999))
 
 # columns of a timing row; the components' calculation times follow. The scheduled
 # start is on the loop's clock: CLOCK_MONOTONIC ns, or /clock ns under use_sim_time.
-COL_ITERATION, COL_SCHEDULED, COL_JITTER, COL_CALC, COL_OVERRAN = range(5)
-FIXED_COLUMNS = 5
+COL_ITERATION, COL_SCHEDULED, COL_JITTER, COL_CALC, COL_OVERRAN, COL_PHASE = range(6)
+FIXED_COLUMNS = 6
 
 
 def quantile(sorted_values: Sequence[int] | Sequence[float], q: float) -> float:
@@ -107,6 +109,8 @@ class TimingAggregate:
         self.jitter = LogHistogram()
         self.calc = LogHistogram()
         self.components: dict[str, LogHistogram] = {}
+        # the iteration's calculation time per phase of the hyperperiod (which plan ran)
+        self.phases: dict[int, LogHistogram] = {}
         self.rows = 0  # rows aggregated
         self.overruns = 0  # among the aggregated rows
         self.dropped = 0  # rows the loop could not write (ring full), from finished rings
@@ -133,6 +137,12 @@ class TimingAggregate:
             ring.release(n)
             self.jitter.add(rows[:, COL_JITTER])
             self.calc.add(rows[:, COL_CALC])
+            phase = rows[:, COL_PHASE]
+            if phase.max() == 0:  # one rate (or one phase in this batch): no mask
+                self._phase(0).add(rows[:, COL_CALC])
+            else:
+                for p in np.unique(phase).tolist():
+                    self._phase(p).add(rows[phase == p, COL_CALC])
             for k, hist in enumerate(hists):
                 col = rows[:, FIXED_COLUMNS + k]
                 if col.min() < 0:  # iterations the component did not run in (inactive)
@@ -145,6 +155,12 @@ class TimingAggregate:
             if self.on_rows is not None:
                 self.on_rows(rows)
         return total
+
+    def _phase(self, p: int) -> LogHistogram:
+        hist = self.phases.get(p)
+        if hist is None:
+            hist = self.phases[p] = self._new()
+        return hist
 
     def finish(self, ring: Ring, components: Sequence[str]) -> None:
         """Drain ``ring`` a last time and account for the rows it had to drop."""
@@ -160,6 +176,11 @@ class TimingAggregate:
             jitter_us=self.jitter.summary_us(),
             calc_us=self.calc.summary_us(),
             components_us={n: h.summary_us() for n, h in self.components.items() if len(h)},
+            phases_us=(
+                {p: self.phases[p].summary_us() for p in sorted(self.phases)}
+                if len(self.phases) > 1
+                else {}
+            ),
         )
 
     def histograms(self) -> dict[str, Any]:
@@ -168,6 +189,11 @@ class TimingAggregate:
             "jitter": self.jitter.to_dict(),
             "calc": self.calc.to_dict(),
             "components": {n: h.to_dict() for n, h in self.components.items() if len(h)},
+            **(
+                {"phases": {str(p): self.phases[p].to_dict() for p in sorted(self.phases)}}
+                if len(self.phases) > 1
+                else {}
+            ),
         }
 
 
@@ -179,6 +205,8 @@ class TimingSummary:
     jitter_us: dict[str, float] = field(default_factory=dict)
     calc_us: dict[str, float] = field(default_factory=dict)
     components_us: dict[str, dict[str, float]] = field(default_factory=dict)
+    # several rates: the iteration's calculation time per phase of the hyperperiod
+    phases_us: dict[int, dict[str, float]] = field(default_factory=dict)
 
     def coverage_note(self) -> str:
         if self.samples < self.iterations:

@@ -1,0 +1,54 @@
+"""A component at a lower rate, given by its rt_launcher's parameters (-p every:=3
+-p phase:=1), on /clock time: it runs in iterations 1, 4, 7, ... at its place, and its
+mapped output is published only when it was written."""
+
+import pytest
+from rclpy.qos import QoSProfile, ReliabilityPolicy
+from rosgraph_msgs.msg import Clock
+from std_msgs.msg import Float64, Int64
+
+from .._proc import wait_for
+from .test_node_args import CLOCKED, clock_msg
+from .test_nodes import STARTED, end, start  # noqa: F401  (STARTED: ended after each test)
+from .test_topics import spin_until
+
+pytestmark = pytest.mark.integration
+
+
+def test_a_launchers_every_and_phase_make_its_component_run_slower(ros_node, tmp_path):
+    params = tmp_path / "clocked.yaml"
+    params.write_text(CLOCKED)
+    fast, slow, slow_t = [], [], []
+    ros_node.create_subscription(Int64, "/ros/fast_it", lambda m: fast.append(m.data), 100)
+    ros_node.create_subscription(Int64, "/ros/slow_it", lambda m: slow.append(m.data), 100)
+    ros_node.create_subscription(Float64, "/ros/slow_t", lambda m: slow_t.append(m.data), 100)
+    pub = ros_node.create_publisher(
+        Clock, "/clock", QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT)
+    )
+    r = start("rt_runner", "--ros-args", "-r", "__node:=rate_runner", "--params-file", params)
+    wait_for(r, "ready: 10 Hz")
+    a = start("rt_launcher", "rtcf_ros2_components", "TimeEcho", "--ros-args",
+              "-r", "__node:=fast", "-p", "runner:=/rate_runner",
+              "-r", "iteration:=/ros/fast_it", "-r", "time:=/ros/fast_t")
+    wait_for(a, "loaded into")
+    b = start("rt_launcher", "rtcf_ros2_components", "TimeEcho", "--ros-args",
+              "-r", "__node:=slow", "-p", "runner:=/rate_runner", "-p", "every:=3",
+              "-p", "phase:=1", "-r", "iteration:=/ros/slow_it", "-r", "time:=/ros/slow_t")
+    wait_for(b, "loaded into")
+    for topic in ("/ros/fast_it", "/ros/slow_it", "/ros/slow_t"):
+        assert spin_until(ros_node, lambda t=topic: ros_node.count_publishers(t) > 0), topic
+    assert spin_until(ros_node, lambda: ros_node.count_subscribers("/clock") > 0)
+    start_ns = 50 * 10**9
+    assert spin_until(ros_node, lambda: fast[-1:] == [0],
+                      publish=lambda: pub.publish(clock_msg(start_ns))), fast
+    for k in range(1, 21):  # 1 s of /clock in steps of 50 ms: ten periods at 10 Hz
+        pub.publish(clock_msg(start_ns + k * 50_000_000))
+        spin_until(ros_node, lambda: False, timeout=0.05)
+    assert spin_until(ros_node, lambda: fast[-1:] == [10]), fast
+    spin_until(ros_node, lambda: False, timeout=0.5)
+    assert fast == list(range(11))
+    # every 3 iterations from phase 1, and published only in those
+    assert slow == [1, 4, 7, 10]
+    assert slow_t == pytest.approx([0.1, 0.4, 0.7, 1.0])
+    end(b, a, r)
+    assert r.returncode == 0
