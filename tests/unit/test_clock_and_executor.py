@@ -374,3 +374,33 @@ def test_stop_flag_lives_in_any_int64_cell() -> None:
     assert flag.requested
     flag.clear()
     assert cell[0] == 0 and not flag.requested
+
+
+class _SteppedClock:
+    """A clock whose time the test sets; sleeping jumps to the deadline."""
+
+    simulated = True
+
+    def __init__(self, now: int) -> None:
+        self.now = now
+
+    def now_ns(self) -> int:
+        return self.now
+
+    def sleep_until_ns(self, deadline_ns: int) -> None:
+        self.now = max(self.now, deadline_ns)
+
+
+def test_a_run_stopped_before_its_first_iteration_does_not_start_the_time_grid() -> None:
+    # a load request while the loop waits for its first /clock: the run ends at once
+    clock = _SteppedClock(0)
+    state = LoopState(1000.0)
+    probe = Probe(state)
+    ex = Executor([probe], clock, state, TimingWriter(["/c0"], local_ring(1, 16)))
+    stop = StopFlag()
+    stop.set(2)
+    assert ex.run(3, stop) == 0
+    clock.now = 50 * 10**9  # /clock arrives, at 50 s
+    stop.set(0)
+    assert ex.run(2, stop) == 2
+    assert [(i, t) for i, t, _ in probe.seen] == [(0, 0), (1, P)]

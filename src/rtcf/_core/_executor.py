@@ -229,7 +229,8 @@ class Executor:
         deadline = now()
         if self.next_deadline_ns is not None and self.next_deadline_ns > deadline:
             deadline = self.next_deadline_ns
-        if self.origin_ns is None:
+        fresh = self.origin_ns is None
+        if fresh:
             self.origin_ns = deadline
         origin = self.origin_ns
         i = state.iteration + 1
@@ -313,7 +314,12 @@ class Executor:
             raise UpdateFailure(k - F, i, state.time_ns, exc) from exc
         finally:
             state.running = False
-            self.next_deadline_ns = deadline
+            if fresh and state.iteration < first:
+                # stopped before its first iteration (a load while waiting for the first
+                # /clock): the loop has not started, so its time 0 is still to come
+                self.origin_ns = None
+            else:
+                self.next_deadline_ns = deadline
             timing.overruns = overruns
             timing.count = count
         return i - first
