@@ -147,6 +147,7 @@ class Executor:
         self.plan: Plan  # what each iteration runs; swapped between iterations by set_active()
         # per phase of the hyperperiod (several rates); iteration i runs plans[i % len]
         self.plans: tuple[Plan, ...] = ()
+        self.hyperperiod = 1  # len(plans)
         self.rates: tuple[tuple[int, int], ...] | None = None  # (every, phase) per update
         self.updates = updates  # all active
         self.clock = clock
@@ -184,8 +185,10 @@ class Executor:
         Call it between iterations (a feeder, ``idle``) or between runs. It compiles a
         new plan (allocation, outside the loop's steady state) and swaps it in.
         """
-        self.plans = compile_plans(self.updates, active, self.rates)
-        self.plan = self.plans[0]
+        plans = compile_plans(self.updates, active, self.rates)
+        self.hyperperiod = len(plans)  # the loop picks plans[i % hyperperiod]
+        self.plans = plans
+        self.plan = plans[0]
 
     def set_rates(self, rates: Sequence[tuple[int, int]], active: Sequence[bool]) -> None:
         """Run update ``k`` every ``rates[k][0]`` iterations from phase ``rates[k][1]``."""
@@ -257,9 +260,8 @@ class Executor:
                         feed()
                     t = now()
                 # read after the feeders (a swap applies now); one plan per phase
-                plans = self.plans
-                phase = i % len(plans)
-                steps, skipped = plans[phase]
+                phase = i % self.hyperperiod
+                steps, skipped = self.plans[phase]
                 for k, update in steps:
                     running[0] = k
                     update()
