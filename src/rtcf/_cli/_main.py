@@ -23,6 +23,7 @@ from .._launch._deployment import Deployment, RunnerDeployment
 from .._launch._files import load_deployment
 from .._runtime._supervisor import Bridge, LiveStatus, WorkerRunner
 from . import _evaluate
+from ._costs import apply_measured_costs
 from ._introspection import mapping
 from ._logconfig import apply_rosconsole
 from ._report import can_plot, format_summary, write_report
@@ -62,10 +63,13 @@ def _say(text: str) -> None:
     print(f"rtcf: {text}", file=sys.stderr, flush=True)
 
 
-def _load(words: Sequence[str]) -> Deployment:
+def _load(words: Sequence[str], costs: str | None = None) -> Deployment:
     deployment = load_deployment(words)
     for warning in deployment.warnings:
         _say(f"warning: {warning}")
+    if costs is not None:
+        for note in apply_measured_costs(deployment, costs):
+            _say(note)
     return deployment
 
 
@@ -134,7 +138,7 @@ def _rate_plan(runner: Runner) -> list[str]:
 
 
 def cmd_graph(ns: argparse.Namespace) -> int:
-    deployment = _load(ns.target)
+    deployment = _load(ns.target, ns.costs)
     for target in deployment.runners:
         runner = _build_runner(target, deployment, sim=True)
         try:
@@ -151,7 +155,7 @@ def cmd_graph(ns: argparse.Namespace) -> int:
 
 
 def cmd_check(ns: argparse.Namespace) -> int:
-    deployment = _load(ns.target)
+    deployment = _load(ns.target, ns.costs)
     for target in deployment.runners:
         runner = _build_runner(target, deployment, sim=True)
         try:
@@ -177,7 +181,7 @@ def cmd_check(ns: argparse.Namespace) -> int:
 
 
 def cmd_launch(ns: argparse.Namespace) -> int:
-    deployment = _load(ns.target)
+    deployment = _load(ns.target, ns.costs)
     target = deployment.runner
     settings = target.settings
     for note in apply_rosconsole(target, ns.middleware, ns.log_level):  # start levels
@@ -465,12 +469,14 @@ def build_parser() -> argparse.ArgumentParser:
         choices=["debug", "info", "warning", "error"],
         help="lowest level of component log records shown (default info)",
     )
+    _add_costs(launch)
     launch.set_defaults(func=cmd_launch)
     _add_debug(launch)
 
     graph = sub.add_parser("graph", help="print components, connections and execution order")
     graph.add_argument("target", nargs="+", metavar="TARGET", help=target_help)
     graph.add_argument("--format", choices=["text", "dot", "mermaid"], default="text")
+    _add_costs(graph)
     graph.set_defaults(func=cmd_graph, log_level="warning")
 
     for command, what, arg in (
@@ -496,10 +502,20 @@ def build_parser() -> argparse.ArgumentParser:
 
     check = sub.add_parser("check", help="validate a launch file without running it")
     check.add_argument("target", nargs="+", metavar="TARGET", help=target_help)
+    _add_costs(check)
     check.set_defaults(func=cmd_check, log_level="warning")
     _add_debug(graph)
     _add_debug(check)
     return parser
+
+
+def _add_costs(subparser: argparse.ArgumentParser) -> None:
+    subparser.add_argument(
+        "--costs",
+        metavar="TIMING_JSON",
+        help="spread slow components by their measured cost: the p99 calculation times "
+        "in a timing.json of --report (where the launch file declares no cost_us)",
+    )
 
 
 def _add_debug(subparser: argparse.ArgumentParser) -> None:

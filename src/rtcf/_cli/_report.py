@@ -43,8 +43,16 @@ def format_summary(result: RunResult, settings: RunnerSettings, wall_s: float) -
     lines.append(row("calculation (iteration)", t.calc_us))
     for name, stats in t.components_us.items():
         lines.append(row(f"  {name}", stats))
-    for phase, stats in t.phases_us.items():  # several rates: per phase of the hyperperiod
+    # several rates: per phase of the hyperperiod; beyond a few, the most expensive
+    phases = sorted(t.phases_us.items(), key=lambda kv: -kv[1].get("max", 0.0))
+    shown = phases if len(phases) <= 8 else phases[:4]
+    for phase, stats in sorted(shown):
         lines.append(row(f"calculation (phase {phase})", stats))
+    if len(shown) < len(phases):
+        lines.append(
+            f"  (the {len(shown)} phases with the highest maximum of {len(phases)}; "
+            "every phase is in timing.json)"
+        )
     note = t.coverage_note()
     if note:
         lines.append(f"  ({note})")

@@ -232,10 +232,10 @@ class Executor:
         deadline = now()
         if self.next_deadline_ns is not None and self.next_deadline_ns > deadline:
             deadline = self.next_deadline_ns
-        fresh = self.origin_ns is None
-        if fresh:
-            self.origin_ns = deadline
         origin = self.origin_ns
+        fresh = origin is None
+        if origin is None:
+            origin = self.origin_ns = deadline
         i = state.iteration + 1
         end = -1 if iterations is None else i + iterations
         first = i

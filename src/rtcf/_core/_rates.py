@@ -7,7 +7,8 @@ component runs, it runs at its place in the data-flow order; in the others it is
 skipped and its outputs keep their last value (``OLD_DATA`` for readers; a port says
 which iteration its value was written in). Without a ``phase``, the runner spreads
 slow components over the phases, most expensive first (``cost_us``, a launcher
-parameter; 1 by default), so that their runs fall in different iterations.
+parameter, or measured: ``rtcf launch --costs timing.json``; 1 by default), so that
+their runs fall in different iterations.
 The schedule repeats every hyperperiod (the lcm of the dividers); the executor holds
 one precomputed plan per phase and picks it with one index per iteration.
 """
@@ -29,7 +30,12 @@ class Rate:
     rate: float = 0.0  # Hz; 0: not given
     every: int = 0  # divider; 0: not given
     phase: int | None = None  # None: the runner chooses
-    cost_us: float = 1.0  # what one run costs, for spreading the load
+    cost_us: float | None = None  # what one run costs, for spreading the load (None: 1)
+
+    @property
+    def cost(self) -> float:
+        """The cost the runner spreads: ``cost_us``, or 1 when none was given."""
+        return 1.0 if self.cost_us is None else self.cost_us
 
     @classmethod
     def from_params(cls, params: Mapping[str, Any], component: str) -> Rate:
@@ -66,7 +72,9 @@ class Rate:
             raise ConfigurationError(f"component {component!r}: every must be 1 or more")
         if phase is not None and phase < 0:
             raise ConfigurationError(f"component {component!r}: phase must not be negative")
-        return cls(rate or 0.0, every or 0, phase, 1.0 if cost is None else cost)
+        if cost is not None and cost < 0:
+            raise ConfigurationError(f"component {component!r}: cost_us must not be negative")
+        return cls(rate or 0.0, every or 0, phase, cost)
 
     def divider(self, frequency: float, component: str) -> tuple[int, int | None]:
         """``(every, phase)`` at the runner's ``frequency``; a clear error if ``rate``
@@ -137,8 +145,8 @@ def plan_table(
     frequency: float,
 ) -> list[str]:
     """The plan as text: one row per component, one column per phase of the
-    hyperperiod (``x``: it runs in that iteration), then the declared cost of each
-    phase, grouped, and the worst one."""
+    hyperperiod (``x``: it runs in that iteration), then the cost of each phase
+    (declared, or measured), grouped, the worst first."""
     h = 1
     for every, _ in rates:
         h = h * every // math.gcd(h, every)
@@ -159,7 +167,7 @@ def plan_table(
         lines.append(f"  {'':<{width}}  {units}{header}")
         for n, (every, phase), c, row in zip(names, rates, costs, runs, strict=True):
             cells = "".join("x" if r else "." for r in row[start:stop])
-            extra = f"  {every:>5}  {phase:>5}  {c:>7g}" if start == 0 else ""
+            extra = f"  {every:>5}  {phase:>5}  {c:>7.4g}" if start == 0 else ""
             lines.append(f"  {n:<{width}}  {cells}{extra}")
     groups: dict[float, list[int]] = {}
     for p, c in enumerate(cost):
@@ -168,17 +176,6 @@ def plan_table(
     for c in sorted(groups, reverse=True):
         phases = groups[c]
         shown = ", ".join(map(str, phases[:4])) + (", ..." if len(phases) > 4 else "")
-        parts.append(f"{c:g} in {len(phases)} phase{'s' if len(phases) > 1 else ''} ({shown})")
-    lines.append("  declared cost per iteration [us] (cost_us), worst first: " + "; ".join(parts))
+        parts.append(f"{c:.4g} in {len(phases)} phase{'s' if len(phases) > 1 else ''} ({shown})")
+    lines.append("  cost per iteration [us] (cost_us), worst first: " + "; ".join(parts))
     return lines
-
-
-def worst_cost(rates: Sequence[tuple[int, int]], costs: Sequence[float]) -> float:
-    """The declared cost of the most expensive iteration of the hyperperiod."""
-    h = 1
-    for every, _ in rates:
-        h = h * every // math.gcd(h, every)
-    return max(
-        sum(c for (every, phase), c in zip(rates, costs, strict=True) if (p - phase) % every == 0)
-        for p in range(h)
-    )

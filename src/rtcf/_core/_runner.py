@@ -627,7 +627,7 @@ class Runner:
         )
         frequency = self.settings.frequency
         dividers = [self._loaded[n].spec.rate.divider(frequency, n) for n in scheduled]
-        costs = [self._loaded[n].spec.rate.cost_us for n in scheduled]
+        costs = [self._loaded[n].spec.rate.cost for n in scheduled]
         self._rates = spread(scheduled, dividers, costs)
         executor.set_rates(
             self._rates, [self._loaded[n].state == ACTIVE for n in scheduled]
@@ -926,12 +926,12 @@ class Runner:
 
     def rate_plan(self) -> list[str] | None:
         """The multi-rate plan as a table (components x phases of the hyperperiod) with
-        each phase's declared cost, or None when every component runs every iteration."""
+        each phase's cost, or None when every component runs every iteration."""
         if self._executor is None:
             self._executor = self._compile()
         if all(every == 1 for every, _ in self._rates):
             return None
-        costs = [self._loaded[n].spec.rate.cost_us for n in self._schedule]
+        costs = [self._loaded[n].spec.rate.cost for n in self._schedule]
         return plan_table(self._schedule, self._rates, costs, self.settings.frequency)
 
     @property
