@@ -196,3 +196,24 @@ def test_timing_reports_each_phase_and_each_component_where_it_ran() -> None:
     # the phase the slow component runs in costs one update more
     assert agg.phases[1].max - agg.phases[0].max == 1000
     runner.shutdown()
+
+
+def test_a_slow_components_tunable_applies_at_its_next_run() -> None:
+    from rtcf._launch._files import load_deployment
+
+    deployment = load_deployment(["rtcf_examples", "cascade.launch"])
+    runner = rtcf.Runner(
+        deployment.runner.settings, clock=rtcf.SimClock(), parameters=deployment.parameters
+    )
+    for spec in deployment.runner.components:
+        runner.load(spec)
+    seen: list[float] = []
+    out = runner.components["/cascade/position_controller"].command
+    runner.run(6, on_iteration=lambda: seen.append(out._slot.value))
+    assert seen[5] != 0.0  # kp 20 on a step to 1: saturated at the limit
+    assert runner.set_parameter("/cascade/position_controller", "kp", 0.0) == 0.0
+    runner.run(4, on_iteration=lambda: seen.append(out._slot.value))
+    # iterations 6 and 7 keep the value of 5; the run in 9 (phase 1) applies kp = 0
+    assert seen[6] == seen[7] == seen[8] == seen[5] and seen[9] == 0.0
+    assert runner.describe_component("/cascade/position_controller")["every"] == 4
+    runner.shutdown()

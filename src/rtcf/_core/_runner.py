@@ -299,6 +299,7 @@ class Runner:
                 {**t.spec.to_dict(), "value": t.value} for t in comp.params.declared.values()
             ],
             "log_level": comp.log.level,
+            "every": comp.every,  # runs every this many iterations (rate, every)
             "lifecycle": STATE_LABELS[entry.state],
         }
 
