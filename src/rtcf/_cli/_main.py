@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import logging
 import os
@@ -10,6 +11,7 @@ import signal
 import sys
 import time
 from collections.abc import Sequence
+from pathlib import Path
 from types import FrameType
 from typing import Any
 
@@ -18,15 +20,16 @@ from .._core._clock import MonotonicClock, SimClock
 from .._core._errors import LaunchError, RtcfError
 from .._core._graph import Graph, to_dot, to_mermaid
 from .._core._names import basename, namespace_of
-from .._core._runner import Runner
+from .._core._runner import Runner, RunResult
 from .._launch._deployment import Deployment, RunnerDeployment
 from .._launch._files import load_deployment
+from .._runtime._mcap import McapRecording
 from .._runtime._supervisor import Bridge, LiveStatus, WorkerRunner
 from . import _evaluate
 from ._costs import apply_measured_costs
 from ._introspection import mapping
 from ._logconfig import apply_rosconsole
-from ._report import can_plot, format_summary, write_report
+from ._report import can_plot, format_summary, timing_document, write_report
 
 EPILOG = """\
 examples:
@@ -191,6 +194,7 @@ def cmd_launch(ns: argparse.Namespace) -> int:
             f"note: --report {ns.report}: matplotlib is not installed, so timing.png will "
             "be skipped (pip install 'rtcf[plot]'); timing.json will be written"
         )
+    recording = _recording(ns) if ns.record else None
     status_line = None if ns.quiet else _STATUS
     bridge = _bridge(ns.middleware, target.name)
     runner = WorkerRunner(
@@ -247,7 +251,7 @@ def cmd_launch(ns: argparse.Namespace) -> int:
             _say(f"running {iterations} iterations ({kind} time)")
         started = time.perf_counter()
         try:
-            result = runner.run(iterations, trace=ns.trace)
+            result = runner.run(iterations, trace=ns.trace, record=recording)
         except RtcfError as exc:  # a component, a watchdog, a hook that hung, a dead worker
             if ns.debug:
                 print(getattr(exc, "worker_traceback", ""), file=sys.stderr, end="")
@@ -260,6 +264,8 @@ def cmd_launch(ns: argparse.Namespace) -> int:
                 status_line.clear()
         if ns.trace and result is not None:
             _say(f"wrote {ns.trace}")
+        if recording is not None:  # also after a fault: what led to it is in the file
+            _finish_recording(recording, deployment, target, ns, result, wall)
         if result is not None:
             for fault in result.faults:
                 _say(f"fault: {fault.describe()}")
@@ -283,6 +289,54 @@ def cmd_launch(ns: argparse.Namespace) -> int:
         _restore_handlers(previous)
         runner.close()
     return status
+
+
+def _recording(ns: argparse.Namespace) -> McapRecording:
+    definition = None
+    if ns.middleware == "ros2":
+        from .._ros2._msgdef import message_definition
+
+        definition = message_definition
+    return McapRecording(ns.record, ns.record_topics, message_definition=definition)
+
+
+def _finish_recording(
+    recording: McapRecording,
+    deployment: Deployment,
+    target: RunnerDeployment,
+    ns: argparse.Namespace,
+    result: RunResult | None,
+    wall: float,
+) -> None:
+    """The metadata and attachments that make the file reproduce the run, then close."""
+    settings = target.settings
+    source = Path(deployment.source) if deployment.source else None
+    attachments: dict[str, tuple[str, bytes]] = {
+        "settings.json": (
+            "application/json",
+            json.dumps(dataclasses.asdict(settings), indent=2, default=str).encode(),
+        ),
+    }
+    if source is not None and source.is_file():
+        attachments[f"launch/{source.name}"] = ("application/xml", source.read_bytes())
+    metadata: dict[str, Any] = {
+        "rtcf_version": __version__,
+        "launch_file": str(source) if source else "",
+        "launch_arguments": [w for w in ns.target if ":=" in w],
+        "runner": target.name,
+        "frequency_hz": settings.frequency,
+        "middleware": ns.middleware,
+        "simulated": ns.sim,
+        "record_topics": ns.record_topics,
+    }
+    if result is not None:
+        metadata["iterations"] = result.iterations
+        metadata["order"] = result.order
+        metadata["stopped_by"] = result.stopped_by
+        doc = timing_document(result, settings, wall)
+        attachments["timing.json"] = ("application/json", json.dumps(doc, indent=2).encode())
+    recording.finish(metadata, attachments)
+    _say(recording.summary())
 
 
 def _bridge(middleware: str, runner_name: str) -> Bridge | None:
@@ -468,6 +522,18 @@ def build_parser() -> argparse.ArgumentParser:
         default="info",
         choices=["debug", "info", "warning", "error"],
         help="lowest level of component log records shown (default info)",
+    )
+    launch.add_argument(
+        "--record",
+        metavar="MCAP",
+        help="record every value of every port topic, each iteration, into an MCAP file "
+        "(ROS 2 schemas: Foxglove and rosbag2 read it)",
+    )
+    launch.add_argument(
+        "--record-topics",
+        metavar="REGEX",
+        default=".*",
+        help="record only the topics that this full-match regex matches (default: all)",
     )
     _add_costs(launch)
     launch.set_defaults(func=cmd_launch)

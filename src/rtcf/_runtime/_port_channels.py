@@ -13,6 +13,7 @@ channels of a run out in one segment; the worker maps it.
 
 from __future__ import annotations
 
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
@@ -134,14 +135,19 @@ class Tap:
 class Feeder:
     """Copies the newest message of a mailbox into the slots of the inputs it feeds."""
 
-    __slots__ = ("_box", "_buf", "_decode", "_seen", "slots")
+    __slots__ = ("_box", "_buf", "_decode", "_seen", "record", "slots", "topic", "type")
 
-    def __init__(self, box: Mailbox, codec: Codec, slots: list[Slot]) -> None:
+    def __init__(
+        self, box: Mailbox, codec: Codec, slots: list[Slot], topic: str = "", type_: type = float
+    ) -> None:
         self._box = box
         self._buf = bytearray(box.size)
         self._decode = codec.decode_buffer()
         self._seen = box.version
         self.slots = slots
+        self.topic = topic
+        self.type = type_
+        self.record: Callable[[Any], None] | None = None  # a recording's tap, if recorded
 
     def __call__(self) -> None:
         box = self._box
@@ -156,6 +162,8 @@ class Feeder:
         for slot in self.slots:
             slot.value = value
             slot.seq += 1
+        if self.record is not None:
+            self.record(value)
 
     def release(self) -> None:
         self._box.close()
@@ -197,7 +205,10 @@ class WorkerPorts:
             else:
                 readers = by_topic_in[mp.topic]
                 slots = [p._slot for p in readers]
-                self.feeders.append(Feeder(Mailbox.open(view), _codec(readers[0]), slots))
+                self.feeders.append(
+                    Feeder(Mailbox.open(view), _codec(readers[0]), slots, mp.topic,
+                           readers[0].type)
+                )
             view.release()
 
     def ring_if_pushed(self) -> None:

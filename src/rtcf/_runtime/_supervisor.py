@@ -54,7 +54,10 @@ from .._core._tunables import (
     encode_update,
 )
 from ._doorbell import Doorbell, RungMailbox
+from ._mcap import McapRecording
 from ._port_channels import OUTPUT_RING_RECORDS, MappedPort, segment_size
+from ._recording import RecordedTopic, RecordingDrain
+from ._recording import segment_size as recording_segment_size
 from ._shm import Segment, outgoing, send_segments
 from ._worker import (
     CLOCK_MAILBOX_OFFSET,
@@ -126,6 +129,7 @@ class WorkerRunner:
         self._clock_box: Mailbox | None = None
         self._clock_bell: Doorbell | None = None  # rung with each /clock message
         self._timing: tuple[Ring, list[str], TimingAggregate] | None = None
+        self._recording: tuple[RecordingDrain, McapRecording] | None = None
         self._events: dict[str, Any] = {}
         self._hook: tuple[str, str, float] | None = None  # the hook the worker runs now
         self.exit_reported = False
@@ -375,6 +379,9 @@ class WorkerRunner:
         if self._timing is not None:
             ring, names, aggregate = self._timing
             aggregate.consume(ring, names)
+        if self._recording is not None:
+            drain, recording = self._recording
+            drain.drain(recording.write)
         if self._backlog:
             with self._update_lock:
                 self._send_backlog()
@@ -635,11 +642,27 @@ class WorkerRunner:
     def stop_requested(self) -> bool:
         return self._ctl is not None and self._ctl[CTL_STOP] != 0
 
-    def run(self, iterations: int | None = None, *, trace: str | None = None) -> RunResult:
-        """Run the loop in the worker until ``iterations`` ran or :meth:`request_stop`."""
-        prepared = self.call("prepare", self.bridge is not None)
+    def run(
+        self,
+        iterations: int | None = None,
+        *,
+        trace: str | None = None,
+        record: McapRecording | None = None,
+    ) -> RunResult:
+        """Run the loop in the worker until ``iterations`` ran or :meth:`request_stop`;
+        with ``record``, every value of the topics it selects goes into it."""
+        prepared = self.call(
+            "prepare", self.bridge is not None, record.pattern if record is not None else None
+        )
         schedule: list[str] = prepared["schedule"]
         ports: list[MappedPort] = prepared["ports"]
+        recorded: list[RecordedTopic] = prepared["recorded"]
+        rec_seg = drain = None
+        if record is not None and recorded:
+            record.begin(recorded)
+            rec_seg = self._segment(recording_segment_size(recorded), "rtcf-record")
+            drain = RecordingDrain(rec_seg.buf, recorded)
+            self._recording = (drain, record)
         capacity = ring_capacity(len(schedule))
         seg = self._segment(Ring.nbytes(capacity, row_size(len(schedule))), "rtcf-timing")
         ring = Ring.create(seg.buf, capacity, row_size(len(schedule)))
@@ -652,9 +675,17 @@ class WorkerRunner:
         try:
             if self.bridge is not None and ports:
                 self.bridge.open(ports, channels)
-            done = self.call("run", iterations, seg, trace, port_seg, ports)
+            done = self.call(
+                "run", iterations, seg, trace, port_seg, ports, rec_seg, recorded or None
+            )
         finally:
             self._timing = None
+            self._recording = None
+            if drain is not None and record is not None and rec_seg is not None:
+                drain.drain(record.write)
+                record.end_run(drain.dropped(), {})
+                drain.close()
+                self._close_segment(rec_seg)
             aggregate.finish(ring, schedule)
             ring.close()
             self._close_segment(seg)
@@ -667,6 +698,8 @@ class WorkerRunner:
                 channel.close()
             if port_seg is not None:
                 self._close_segment(port_seg)
+        if record is not None:
+            record.end_run({}, done.get("recording", {}))
         for topic, n in done.get("oversize", {}).items():
             self.log_sink(_note(30, f"{n} messages on {topic} were larger than a channel record "
                                     "and were not published"))

@@ -41,6 +41,7 @@ from .._core._tunables import LIFECYCLE, UPDATE_RECORD_SIZE, UPDATE_RING_RECORDS
 from ._doorbell import Doorbell
 from ._port_channels import MappedPort, WorkerPorts, mapped_ports
 from ._realtime import FrozenGC, RealtimeReport, apply_realtime
+from ._recording import RecordedTopic, WorkerRecording, recorded_topics
 from ._shm import Segment, receive_segments
 
 WORKER_MODULE = "rtcf._runtime._worker"  # what the supervisor runs with `python -m`
@@ -304,11 +305,16 @@ class Worker:
             "edges": len(graph.edges),
         }
 
-    def prepare(self, bridged: bool) -> dict[str, Any]:
-        """Compile the schedule and list the mapped ports; the supervisor sizes channels."""
+    def prepare(self, bridged: bool, record: str | None = None) -> dict[str, Any]:
+        """Compile the schedule and list the mapped ports and the recorded topics (a
+        full-match regex, or None); the supervisor sizes their channels."""
         runner = self._runner()
         ports = mapped_ports(*runner.mapped_ports()) if bridged else []
-        return {"schedule": runner.schedule, "ports": ports}
+        recorded = []
+        if record is not None:
+            fed = runner.mapped_ports()[1] if bridged else []
+            recorded = recorded_topics(_all_outputs(runner), fed, record)
+        return {"schedule": runner.schedule, "ports": ports, "recorded": recorded}
 
     def run(
         self,
@@ -317,6 +323,8 @@ class Worker:
         trace_path: str | None,
         port_seg: Segment | None = None,
         ports: list[MappedPort] | None = None,
+        rec_seg: Segment | None = None,
+        recorded: list[RecordedTopic] | None = None,
     ) -> dict[str, Any]:
         runner = self._runner()
         ring = Ring.open(seg.buf)
@@ -325,6 +333,13 @@ class Worker:
         if port_seg is not None and ports:
             bridge = WorkerPorts(
                 port_seg.buf, ports, *runner.mapped_ports(), doorbell=self.doorbell
+            )
+        recording = None
+        if rec_seg is not None and recorded:
+            recording = WorkerRecording(
+                rec_seg.buf, recorded, _all_outputs(runner),
+                bridge.feeders if bridge is not None else [], runner.state,
+                wait=self.simulated,
             )
         feeders: list[Callable[[], object]] = [self._updates()]
         if bridge is not None:
@@ -357,6 +372,11 @@ class Worker:
             ring.close()
             seg.close()
             oversize = bridge.counts() if bridge else {}
+            record_counts = recording.counts() if recording is not None else {}
+            if recording is not None:
+                recording.release()  # before the bridge: it restores the bridge's taps
+            if rec_seg is not None:
+                rec_seg.close()
             if bridge is not None:
                 bridge.release()
             if port_seg is not None:
@@ -381,6 +401,7 @@ class Worker:
             "realtime": realtime,
             "last_iteration": runner.state.iteration,
             "oversize": oversize,
+            "recording": record_counts,
             "faults": [f.to_dict() for f in result.faults],
             "safe_stops": [vars(o) for o in result.safe_stops],
             "heartbeat_lost": bool(watch is not None and watch.fired),
@@ -420,6 +441,10 @@ class Worker:
         for bell in (self.doorbell, self.clock_doorbell):
             if bell is not None:
                 bell.close()
+
+
+def _all_outputs(runner: Runner) -> list[Any]:
+    return [p for c in runner.components.values() for p in c._rtcf_outputs.values()]
 
 
 class HeartbeatWatch:

@@ -1,0 +1,194 @@
+"""A recording as a standard MCAP file: ROS 2 schemas (``ros2msg``), CDR messages.
+
+The supervisor writes what the worker's recording rings hold with the ``mcap`` and
+``mcap-ros2-support`` packages (``pip install 'rtcf[record]'``): primitives as
+std_msgs (Float64, Int64, Bool, String), float arrays as std_msgs/Float64MultiArray,
+ROS 2 messages as themselves (their definition from the ament index). Each message's
+log and publish time is the iteration's stamp (ROS time of its scheduled start: wall
+time, /clock time, or from 0 under ``--sim``) and its sequence number the iteration.
+The file also carries what reproduces the run: the launch file, the runner's
+settings, the order and timing.json as attachments, and a metadata record ``rtcf``
+with the counts, including every record a full ring had to drop.
+"""
+
+from __future__ import annotations
+
+import json
+from collections.abc import Callable
+from typing import Any
+
+from .._core._errors import ConfigurationError
+from ._codec import Codec, codec_for
+from ._recording import Record, RecordedTopic
+
+_MULTI_ARRAY = """std_msgs/MultiArrayLayout layout
+float64[] data
+================================================================================
+MSG: std_msgs/MultiArrayLayout
+std_msgs/MultiArrayDimension[] dim
+uint32 data_offset
+================================================================================
+MSG: std_msgs/MultiArrayDimension
+string label
+uint32 size
+uint32 stride
+"""
+
+# a port's codec kind -> the ROS 2 message it is recorded as, and its definition
+PRIMITIVES: dict[str, tuple[str, str]] = {
+    "float": ("std_msgs/msg/Float64", "float64 data\n"),
+    "int": ("std_msgs/msg/Int64", "int64 data\n"),
+    "bool": ("std_msgs/msg/Bool", "bool data\n"),
+    "str": ("std_msgs/msg/String", "string data\n"),
+    "float_array": ("std_msgs/msg/Float64MultiArray", _MULTI_ARRAY),
+}
+
+RECORD_HINT = "install the recording extra: pip install 'rtcf[record]'"
+
+
+def _primitive_message(kind: str, value: Any) -> Any:
+    if kind == "float_array":
+        data = [float(x) for x in value]
+        n = len(data)
+        return {
+            "layout": {"dim": [{"label": "", "size": n, "stride": n}], "data_offset": 0},
+            "data": data,
+        }
+    return {"data": value}
+
+
+class McapRecording:
+    """Writes one run's records into ``path`` (opened at the first run)."""
+
+    def __init__(
+        self,
+        path: str,
+        pattern: str = ".*",
+        *,
+        message_definition: Callable[[str], str] | None = None,
+    ) -> None:
+        try:
+            from mcap_ros2.writer import Writer
+        except ImportError:
+            raise ConfigurationError(
+                f"--record {path}: the mcap packages are not installed; {RECORD_HINT}"
+            ) from None
+        self.path = path
+        self.pattern = pattern
+        self._definition = message_definition
+        self._writer_class = Writer
+        self._writer: Any = None
+        self._file: Any = None
+        self._channels: dict[str, tuple[Any, Codec, str]] = {}  # topic -> schema, codec, kind
+        self.messages: dict[str, int] = {}
+        self.dropped: dict[str, int] = {}
+        self.oversize: dict[str, int] = {}
+
+    def begin(self, topics: list[RecordedTopic]) -> None:
+        """Register the schemas and channels of a run's recorded topics."""
+        if self._writer is None:
+            try:
+                self._file = open(self.path, "wb")
+            except OSError as exc:
+                raise ConfigurationError(
+                    f"--record {self.path}: cannot write it: {exc.strerror}"
+                ) from None
+            self._writer = self._writer_class(self._file)
+        for t in topics:
+            if t.topic in self._channels:
+                continue
+            name, text = self._schema(t)
+            schema = self._writer.register_msgdef(name, text)
+            codec = _codec_of(t)
+            self._channels[t.topic] = (schema, codec, t.kind)
+            self.messages.setdefault(t.topic, 0)
+
+    def _schema(self, t: RecordedTopic) -> tuple[str, str]:
+        if t.kind in PRIMITIVES:
+            return PRIMITIVES[t.kind]
+        if t.kind == "ros2":
+            if self._definition is None:
+                raise ConfigurationError(
+                    f"{t.topic} ({t.type_name}) is recorded, but no ROS 2 message "
+                    "definitions are at hand: record it with --middleware ros2"
+                )
+            return t.type_name, self._definition(t.type_name)
+        raise ConfigurationError(
+            f"{t.topic} has the ROS 1 message type {t.type_name}, which rtcf does not record "
+            "yet; leave it out with --record-topics"
+        )
+
+    def write(self, record: Record) -> None:
+        schema, codec, kind = self._channels[record.topic]
+        value = codec.decode(record.payload)
+        message = value if kind == "ros2" else _primitive_message(kind, value)
+        stamp = max(0, record.stamp_ns)
+        self._writer.write_message(
+            record.topic,
+            schema,
+            message,
+            log_time=stamp,
+            publish_time=stamp,
+            sequence=record.iteration & 0xFFFFFFFF,
+        )
+        self.messages[record.topic] += 1
+
+    def end_run(self, dropped: dict[str, int], counts: dict[str, dict[str, int]]) -> None:
+        """What a run's rings had to drop, and values too large for a record."""
+        for topic, n in dropped.items():
+            self.dropped[topic] = self.dropped.get(topic, 0) + n
+        for topic, c in counts.items():
+            if c.get("oversize"):
+                self.oversize[topic] = self.oversize.get(topic, 0) + c["oversize"]
+
+    def finish(
+        self, metadata: dict[str, Any], attachments: dict[str, tuple[str, bytes]]
+    ) -> None:
+        """Write the metadata and the attachments (name -> media type, bytes); close."""
+        if self._writer is None:
+            return
+        meta = {k: v if isinstance(v, str) else json.dumps(v) for k, v in metadata.items()}
+        meta["messages"] = json.dumps(self.messages)
+        meta["dropped"] = json.dumps(self.dropped)
+        meta["oversize"] = json.dumps(self.oversize)
+        self._writer.add_metadata("rtcf", meta)
+        for name, (media_type, data) in attachments.items():
+            self._writer.add_attachment(0, 0, name, media_type, data)
+        self._writer.finish()
+        self._file.close()
+        self._writer = None
+
+    def summary(self) -> str:
+        total = sum(self.messages.values())
+        lost = sum(self.dropped.values()) + sum(self.oversize.values())
+        line = (
+            f"recorded {total} messages on {len(self.messages)} topics into {self.path}; "
+            f"dropped: {lost}"
+        )
+        if lost:
+            parts = [f"{t} {n} (ring full)" for t, n in self.dropped.items()]
+            parts += [f"{t} {n} (too large)" for t, n in self.oversize.items()]
+            line += " (" + ", ".join(parts) + ")"
+        return line
+
+
+def _codec_of(t: RecordedTopic) -> Codec:
+    cls: type = {"float": float, "int": int, "bool": bool, "str": str}.get(t.kind, float)
+    if t.kind == "float_array":
+        import numpy as np
+
+        cls = np.ndarray
+    elif t.kind == "ros2":
+        cls = _ros2_class(t.type_name)
+    codec = codec_for(cls)
+    assert codec is not None
+    return codec
+
+
+def _ros2_class(type_name: str) -> type:
+    import importlib
+
+    package, _, name = type_name.split("/")
+    cls: type = getattr(importlib.import_module(f"{package}.msg"), name)
+    return cls
+

@@ -1,0 +1,268 @@
+"""Recording every port at full loop rate: the worker's taps and the supervisor's drain.
+
+Each recorded topic gets a ring of fixed-size records in one shared segment:
+payload length, the iteration, its stamp (ROS time of the scheduled start, ns), then
+the value's bytes in the topic's codec (:mod:`rtcf._runtime._codec`: primitives and
+float arrays packed as they are, ROS messages as their serialized bytes; nothing is
+pickled). An output is recorded at every ``write`` (a tap, as for a mapped port); an
+input fed from the middleware when its feeder brings a new message. A record that
+finds its ring full is dropped and counted by the ring, on the real-time clock; on a
+simulated clock the loop waits for room instead, since time does not matter there and
+nothing should be lost. The supervisor drains the rings into a writer
+(:mod:`rtcf._runtime._mcap`).
+"""
+
+from __future__ import annotations
+
+import re
+import time
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass
+from typing import Any
+
+from .._core._errors import ConfigurationError
+from .._core._loop_state import LoopState
+from .._core._message_types import type_name
+from .._core._ports import InputPort, OutputPort
+from .._core._rings import Ring
+from ._codec import Codec, codec_for
+from ._port_channels import Feeder, _TappedOutputPort
+
+_HDR = 24  # payload length, iteration, stamp: three int64
+_BUDGET = 4 << 20  # bytes of ring per recorded topic at most
+_MAX_RECORDS = 1 << 14  # 8 s at 2 kHz
+
+
+@dataclass(frozen=True)
+class RecordedTopic:
+    """One recorded topic, as both processes see it."""
+
+    topic: str
+    direction: str  # "output" (written in the loop) or "input" (fed from the middleware)
+    type_name: str
+    kind: str  # the codec
+    max_size: int
+    capacity: int
+    offset: int = 0
+    nbytes: int = 0
+
+
+def recorded_topics(
+    outputs: Iterable[OutputPort[Any]], fed_inputs: Iterable[InputPort[Any]], pattern: str
+) -> list[RecordedTopic]:
+    """The topics to record (full match of ``pattern``), laid out in one segment."""
+    try:
+        regex = re.compile(pattern)
+    except re.error as exc:
+        raise ConfigurationError(
+            f"--record-topics {pattern!r} is not a valid regular expression: {exc}"
+        ) from None
+    out: list[RecordedTopic] = []
+    seen: set[str] = set()
+    offset = 0
+    for direction, ports in (("output", outputs), ("input", fed_inputs)):
+        for port in sorted(ports, key=lambda p: p.topic):
+            if port.topic in seen or not regex.fullmatch(port.topic):
+                continue
+            seen.add(port.topic)
+            codec = codec_for(port.type)
+            if codec is None:
+                raise ConfigurationError(
+                    f"port {port.qualified_name} ({port.topic}) is recorded, but its type "
+                    f"{port.type.__name__} cannot be: record float, int, bool, str, 1-D "
+                    "float numpy arrays or ROS messages, or leave the topic out with "
+                    "--record-topics"
+                )
+            size = _HDR + codec.max_size
+            capacity = 64
+            while capacity * 2 <= _MAX_RECORDS and Ring.nbytes(capacity * 2, size) <= _BUDGET:
+                capacity *= 2
+            nbytes = (Ring.nbytes(capacity, size) + 63) // 64 * 64
+            out.append(
+                RecordedTopic(
+                    port.topic, direction, type_name(port.type), codec.kind, codec.max_size,
+                    capacity, offset, nbytes,
+                )
+            )
+            offset += nbytes
+    return out
+
+
+def segment_size(topics: list[RecordedTopic]) -> int:
+    return max(64, sum(t.nbytes for t in topics))
+
+
+class RecordTap:
+    """Encodes a value with its iteration and stamp into a topic's ring (worker side)."""
+
+    __slots__ = ("_data", "_encode", "_max", "_ring", "_state", "_wait", "_words", "oversize")
+
+    def __init__(self, ring: Ring, codec: Codec, state: LoopState, wait: bool) -> None:
+        self._ring = ring
+        self._data = ring.data
+        self._words = ring.data.cast("q")
+        self._encode = codec.encode
+        self._max = ring.record_size - _HDR
+        self._state = state
+        self._wait = wait  # simulated clock: wait for room rather than drop
+        self.oversize = 0
+
+    def __call__(self, value: Any) -> None:
+        data = self._encode(value)
+        n = len(data)
+        if n > self._max:
+            self.oversize += 1
+            return
+        ring = self._ring
+        if self._wait and len(ring) >= ring.capacity:
+            # a simulated clock: wait for the supervisor (10 s at most: it may be gone)
+            give_up = time.monotonic() + 10.0
+            while len(ring) >= ring.capacity and time.monotonic() < give_up:
+                time.sleep(0.0005)
+        off = ring.reserve()
+        if off < 0:
+            return  # the ring counts the drop
+        w = off >> 3
+        words = self._words
+        state = self._state
+        words[w] = n
+        words[w + 1] = state.iteration
+        words[w + 2] = state.stamp_ns
+        self._data[off + _HDR : off + _HDR + n] = data
+        ring.commit()
+
+    @property
+    def dropped(self) -> int:
+        return self._ring.dropped
+
+    def release(self) -> None:
+        self._words.release()
+        self._ring.close()
+
+
+class _Both:
+    """A mapped and recorded output: the middleware's tap, then the recorder's."""
+
+    __slots__ = ("first", "second")
+
+    def __init__(self, first: Callable[[Any], None], second: Callable[[Any], None]) -> None:
+        self.first = first
+        self.second = second
+
+    def __call__(self, value: Any) -> None:
+        self.first(value)
+        self.second(value)
+
+
+class WorkerRecording:
+    """The worker's end of a recording: taps on the recorded outputs and feeders."""
+
+    def __init__(
+        self,
+        buf: memoryview,
+        topics: list[RecordedTopic],
+        outputs: Iterable[OutputPort[Any]],
+        feeders: Iterable[Feeder],
+        state: LoopState,
+        *,
+        wait: bool,
+    ) -> None:
+        self.taps: dict[str, RecordTap] = {}
+        self._restore: list[tuple[OutputPort[Any], type, Any]] = []
+        self._feeders: list[Feeder] = []
+        writers: dict[str, list[OutputPort[Any]]] = {}
+        for port in outputs:
+            writers.setdefault(port.topic, []).append(port)
+        fed = {f.topic: f for f in feeders}
+        for t in topics:
+            view = buf[t.offset : t.offset + t.nbytes]
+            ring = Ring.open(view)
+            view.release()
+            codec = codec_for(_port_type(writers, fed, t))
+            assert codec is not None
+            tap = RecordTap(ring, codec, state, wait)
+            self.taps[t.topic] = tap
+            if t.direction == "output":
+                for port in writers[t.topic]:
+                    self._restore.append((port, port.__class__, port._tap))
+                    port._tap = tap if port._tap is None else _Both(port._tap, tap)
+                    port.__class__ = _TappedOutputPort
+            else:
+                feeder = fed[t.topic]
+                feeder.record = tap
+                self._feeders.append(feeder)
+
+    def counts(self) -> dict[str, dict[str, int]]:
+        """Records each topic dropped (ring full) or could not take (too large)."""
+        return {
+            topic: {"dropped": tap.dropped, "oversize": tap.oversize}
+            for topic, tap in self.taps.items()
+            if tap.dropped or tap.oversize
+        }
+
+    def release(self) -> None:
+        for port, cls, tap in reversed(self._restore):
+            port.__class__ = cls
+            port._tap = tap
+        for feeder in self._feeders:
+            feeder.record = None
+        for tap in self.taps.values():
+            tap.release()
+
+
+def _port_type(
+    writers: dict[str, list[OutputPort[Any]]], fed: dict[str, Feeder], t: RecordedTopic
+) -> type:
+    if t.direction == "output":
+        return writers[t.topic][0].type
+    return fed[t.topic].type
+
+
+@dataclass
+class Record:
+    """One recorded value as the supervisor reads it."""
+
+    topic: str
+    iteration: int
+    stamp_ns: int
+    payload: bytes
+
+
+class RecordingDrain:
+    """The supervisor's end: the rings of a run, drained in order of arrival per topic."""
+
+    def __init__(self, buf: memoryview, topics: list[RecordedTopic]) -> None:
+        self.topics = topics
+        self.rings: list[tuple[RecordedTopic, Ring]] = []
+        for t in topics:
+            view = buf[t.offset : t.offset + t.nbytes]
+            self.rings.append((t, Ring.create(view, t.capacity, _HDR + t.max_size)))
+            view.release()
+
+    def drain(self, sink: Callable[[Record], None]) -> int:
+        """Hand every waiting record to ``sink``; return how many."""
+        total = 0
+        for t, ring in self.rings:
+            while True:
+                start, n = ring.pending()
+                if n == 0:
+                    break
+                size = ring.record_size
+                data = ring.data
+                for k in range(n):
+                    off = (start + k) * size
+                    head = data[off : off + _HDR].cast("q")
+                    length, iteration, stamp = head[0], head[1], head[2]
+                    head.release()
+                    payload = bytes(data[off + _HDR : off + _HDR + length])
+                    sink(Record(t.topic, iteration, stamp, payload))
+                ring.release(n)
+                total += n
+        return total
+
+    def dropped(self) -> dict[str, int]:
+        return {t.topic: ring.dropped for t, ring in self.rings if ring.dropped}
+
+    def close(self) -> None:
+        for _, ring in self.rings:
+            ring.close()

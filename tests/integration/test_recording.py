@@ -1,0 +1,124 @@
+"""rtcf launch --record: every value of every port at loop rate, in a standard MCAP
+file, read back with an independent reader (rosbags) and checked value by value."""
+
+import json
+from pathlib import Path
+
+import pytest
+from mcap.reader import make_reader
+from rosbags.highlevel import AnyReader
+from rosbags.typesys import Stores, get_typestore
+
+from .conftest import SRC, run_rtcf
+from .test_cascade_example import N, _reference
+
+pytestmark = pytest.mark.integration
+
+CASCADE = SRC / "rtcf_examples" / "launch" / "cascade.launch"
+
+
+def read(path):
+    """topic -> [(iteration, log_time_ns, message)] with rosbags, and the msg types."""
+    out, types = {}, {}
+    store = get_typestore(Stores.ROS2_JAZZY)
+    with AnyReader([Path(path)], default_typestore=store) as reader:
+        for con in reader.connections:
+            types[con.topic] = con.msgtype
+        for con, stamp, raw in reader.messages():
+            msg = reader.deserialize(raw, con.msgtype)
+            out.setdefault(con.topic, []).append((stamp, msg))
+    return out, types
+
+
+def mcap_extras(path):
+    with open(path, "rb") as f:
+        reader = make_reader(f)
+        meta = {m.name: dict(m.metadata) for m in reader.iter_metadata()}
+        attachments = {a.name: bytes(a.data) for a in reader.iter_attachments()}
+        sequences = {}
+        for _, channel, message in reader.iter_messages():
+            sequences.setdefault(channel.topic, []).append(message.sequence)
+    return meta, attachments, sequences
+
+
+def test_the_cascade_recorded_under_sim_holds_every_value_of_every_port(tmp_path):
+    path = tmp_path / "run.mcap"
+    result = run_rtcf("launch", CASCADE, "--sim", "--duration", "0.2", "--record", path)
+    assert result.returncode == 0, result.stderr
+    assert f"recorded 1320 messages on 6 topics into {path}; dropped: 0" in result.stderr
+    messages, types = read(path)
+    assert set(types.values()) == {"std_msgs/msg/Float64"}
+    meta, attachments, sequences = mcap_extras(path)
+    expected = _reference(N)
+    # each topic's messages are its writes: the iterations of its component, in order
+    ran = {"position": range(N), "velocity": range(N), "torque": range(N),
+           "velocity_setpoint": range(1, N, 4), "position_setpoint": range(0, N, 40),
+           "tracking_error": range(0, N, 40)}
+    for key, iterations in ran.items():
+        topic = f"/cascade/{key}"
+        assert sequences[topic] == list(iterations), topic
+        stamps = [stamp for stamp, _ in messages[topic]]
+        assert stamps == [i * 500_000 for i in iterations], topic  # 0.5 ms per iteration
+        values = [m.data for _, m in messages[topic]]
+        assert values == [expected[key][i] for i in iterations], topic
+    rtcf_meta = meta["rtcf"]
+    assert json.loads(rtcf_meta["dropped"]) == {} and rtcf_meta["simulated"] == "true"
+    assert json.loads(rtcf_meta["order"])[0] == "/cascade/motor"
+    assert json.loads(rtcf_meta["iterations"]) == N
+    assert attachments["launch/cascade.launch"] == CASCADE.read_bytes()
+    assert json.loads(attachments["settings.json"])["frequency"] == 2000.0
+    assert json.loads(attachments["timing.json"])["iterations"] == N
+
+
+def test_every_kind_of_value_and_a_topic_filter(tmp_path):
+    launch = tmp_path / "kinds.launch"
+    launch.write_text(
+        '<launch><node name="rt_runner" pkg="rtcf" type="rt_runner">'
+        '<param name="frequency" value="100.0"/><param name="mode" value="no_wait"/></node>'
+        '<node name="k" pkg="rtcf" type="rt_launcher" args="rtcf_test_components EveryKind"/>'
+        "</launch>"
+    )
+    path = tmp_path / "kinds.mcap"
+    result = run_rtcf("launch", launch, "--sim", "--duration", "0.1", "--record", path,
+                      "--record-topics", "/[fibsa]")
+    assert result.returncode == 0, result.stderr
+    messages, types = read(path)
+    assert types == {
+        "/f": "std_msgs/msg/Float64", "/i": "std_msgs/msg/Int64", "/b": "std_msgs/msg/Bool",
+        "/s": "std_msgs/msg/String", "/a": "std_msgs/msg/Float64MultiArray",
+    }
+    assert [m.data for _, m in messages["/f"]] == [k * 0.25 for k in range(10)]
+    assert [m.data for _, m in messages["/i"]] == [-k for k in range(10)]
+    assert [m.data for _, m in messages["/b"]] == [k % 2 == 1 for k in range(10)]
+    assert [m.data for _, m in messages["/s"]] == [f"iteration {k}" for k in range(10)]
+    arrays = [list(m.data) for _, m in messages["/a"]]
+    assert arrays == [[k, k + 0.5, -1e300] for k in (0, 3, 6, 9)]
+    assert [m.layout.dim[0].size for _, m in messages["/a"]] == [3, 3, 3, 3]
+    only = tmp_path / "only.mcap"
+    result = run_rtcf("launch", launch, "--sim", "--duration", "0.1", "--record", only,
+                      "--record-topics", "/f|/s")
+    assert result.returncode == 0, result.stderr
+    assert set(read(only)[1]) == {"/f", "/s"}
+
+
+def test_a_real_time_recording_counts_what_it_could_not_keep(tmp_path):
+    path = tmp_path / "rt.mcap"
+    result = run_rtcf("launch", CASCADE, "--duration", "0.5", "--record", path, "--quiet")
+    assert result.returncode == 0, result.stderr
+    meta, _, sequences = mcap_extras(path)
+    dropped = json.loads(meta["rtcf"]["dropped"])
+    # every write of the motor (1000 iterations) is in the file or counted as dropped
+    kept = len(sequences.get("/cascade/position", []))
+    assert kept + dropped.get("/cascade/position", 0) == 1000
+    assert json.loads(meta["rtcf"]["messages"])["/cascade/position"] == kept
+
+
+def test_bad_recording_options_are_one_clear_line(tmp_path):
+    result = run_rtcf("launch", CASCADE, "--sim", "--duration", "0.01", "--record",
+                      tmp_path / "x.mcap", "--record-topics", "(")
+    assert result.returncode == 1
+    assert "rtcf: error: --record-topics '(' is not a valid regular expression" in result.stderr
+    result = run_rtcf("launch", CASCADE, "--sim", "--duration", "0.01", "--record",
+                      tmp_path / "no" / "dir" / "x.mcap")
+    assert result.returncode == 1
+    assert "cannot write it: No such file or directory" in result.stderr
