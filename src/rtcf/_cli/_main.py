@@ -26,6 +26,7 @@ from .._launch._files import load_deployment
 from .._runtime._mcap import McapRecording
 from .._runtime._supervisor import Bridge, LiveStatus, WorkerRunner
 from . import _evaluate
+from . import _replay as _replay_command
 from ._costs import apply_measured_costs
 from ._introspection import mapping
 from ._logconfig import apply_rosconsole
@@ -565,6 +566,7 @@ def build_parser() -> argparse.ArgumentParser:
         _add_debug(p)
 
     _evaluate.add_parser(sub, _add_debug)
+    _replay_command.add_parser(sub, _add_debug)
 
     check = sub.add_parser("check", help="validate a launch file without running it")
     check.add_argument("target", nargs="+", metavar="TARGET", help=target_help)
