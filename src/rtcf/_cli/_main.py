@@ -293,12 +293,10 @@ def cmd_launch(ns: argparse.Namespace) -> int:
 
 
 def _recording(ns: argparse.Namespace) -> McapRecording:
-    definition = None
-    if ns.middleware == "ros2":
-        from .._ros2._msgdef import message_definition
+    # ROS 2 message definitions from the .msg files of the installed packages (no rclpy)
+    from .._ros2._msgdef import message_definition
 
-        definition = message_definition
-    return McapRecording(ns.record, ns.record_topics, message_definition=definition)
+    return McapRecording(ns.record, ns.record_topics, message_definition=message_definition)
 
 
 def _finish_recording(

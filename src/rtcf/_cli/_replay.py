@@ -69,6 +69,7 @@ class _Recorded:
             raise ConfigurationError(f"{path}: the mcap packages are not installed; "
                                      f"{RECORD_HINT}") from None
         self.types: dict[str, str] = {}
+        self.schemas: dict[str, str] = {}  # message type -> its definition, as recorded
         self.values: dict[str, dict[int, Any]] = {}
         try:
             with open(path, "rb") as f:
@@ -82,6 +83,8 @@ class _Recorded:
                 for schema, channel, message, decoded in reader.iter_decoded_messages():
                     name = schema.name if schema is not None else ""
                     self.types[channel.topic] = name
+                    if schema is not None:
+                        self.schemas[name] = schema.data.decode()
                     self.values.setdefault(channel.topic, {})[message.sequence] = (
                         name, message.data, decoded,
                     )
@@ -203,7 +206,12 @@ def _replay(ns: argparse.Namespace, recorded: _Recorded, out: str, deployment: A
         raise LaunchError(f"{ns.recording}: the recording says it ran no iterations")
     outputs = [p for c in comps.values() for p in c._rtcf_outputs.values()]
     topics = recorded_topics(outputs, [readers[f.topic][0] for f in feeders], ".*")
-    recording = McapRecording(out)
+    from .._ros2._msgdef import message_definition
+
+    def definition(type_name: str) -> str:  # the recorded one, else the installed one
+        return recorded.schemas.get(type_name) or message_definition(type_name)
+
+    recording = McapRecording(out, message_definition=definition)
     buf = memoryview(bytearray(segment_size(topics)))
     drain = RecordingDrain(buf, topics)
     recording.begin(topics)

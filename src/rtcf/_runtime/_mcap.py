@@ -110,7 +110,7 @@ class McapRecording:
             if self._definition is None:
                 raise ConfigurationError(
                     f"{t.topic} ({t.type_name}) is recorded, but no ROS 2 message "
-                    "definitions are at hand: record it with --middleware ros2"
+                    "definitions are at hand"
                 )
             return t.type_name, self._definition(t.type_name)
         raise ConfigurationError(
