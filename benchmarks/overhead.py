@@ -240,6 +240,7 @@ def tight_loops(quick: bool) -> dict[str, Any]:
         os.sched_setscheduler(0, policy, param)
         os.sched_setaffinity(0, affinity)
         runner.shutdown()
+    out.update(_recording_cost(n_rtcf, repeats))
     single = out["rtcf: Executor (Runner.run, no sleep, no log drain)"] - out[
         "rtcf: the five Mimo.update calls only"
     ]
@@ -249,6 +250,59 @@ def tight_loops(quick: bool) -> dict[str, Any]:
     out["framework share per iteration, one rate"] = single
     out["framework share per iteration, several rates"] = several
     return out
+
+
+def _recording_cost(n: int, repeats: int) -> dict[str, float]:
+    """The loop with every output recorded (rtcf launch --record): the taps encode each
+    write into its topic's ring; the rings are drained between the timed runs, as the
+    supervisor does on the other core. Same CPU and priority as the caller's."""
+    from rtcf._runtime._recording import (
+        RecordingDrain,
+        WorkerRecording,
+        recorded_topics,
+        segment_size,
+    )
+
+    def timed(runner: Any, after: Callable[[], object]) -> float:
+        best = float("inf")
+        for _ in range(repeats):
+            t0 = time.perf_counter_ns()
+            runner.run(n, drain_logs_every_iteration=False)
+            best = min(best, (time.perf_counter_ns() - t0) / n)
+            after()
+        return best
+
+    plain = _fig1_runner()
+    recorded = _fig1_runner()
+    try:
+        plain.run(1000)
+        recorded.run(1000)
+        outputs = [p for c in recorded.components.values() for p in c._rtcf_outputs.values()]
+        topics = recorded_topics(outputs, [], ".*")
+        buf = memoryview(bytearray(segment_size(topics)))
+        drain = RecordingDrain(buf, topics)
+        taps = WorkerRecording(buf, topics, outputs, [], recorded.state, wait=False)
+        records: list[int] = [0]
+
+        def empty() -> None:
+            records[0] += drain.drain(lambda r: None)
+
+        try:
+            without = timed(plain, lambda: None)
+            with_rec = timed(recorded, empty)
+            dropped = sum(drain.dropped().values())
+        finally:
+            taps.release()
+            drain.close()
+    finally:
+        plain.shutdown()
+        recorded.shutdown()
+    return {
+        "recording: Executor, Fig. 1 not recorded": without,
+        f"recording: Executor, Fig. 1 with its {len(topics)} output topics recorded": with_rec,
+        "recording: cost per recorded write": (with_rec - without) / max(1, len(outputs)),
+        "recording: records dropped": dropped,
+    }
 
 
 def main() -> int:

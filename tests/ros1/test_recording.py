@@ -35,7 +35,7 @@ def test_sum_test_recorded_on_ros1(topics, tmp_path):
     assert f"into {path}; dropped: 0" in err, err
     by_topic = {}
     with AnyReader([Path(path)], default_typestore=get_typestore(Stores.ROS2_JAZZY)) as r:
-        for con, stamp, raw in r.messages():
+        for con, _, raw in r.messages():
             msg = r.deserialize(raw, con.msgtype)
             by_topic.setdefault(con.topic, []).append(msg.data)
     assert set(by_topic) >= {"/rtcf/ros/in", "/rtcf/sum1", "/rtcf/ros/out"}

@@ -313,3 +313,23 @@ def test_mailbox_reader_never_goes_back_to_an_older_value() -> None:
     assert box.try_read_into(out) == 8 and int.from_bytes(out, "little") == 3
     ctl.release()
     box.close()
+
+
+def test_push_words_commits_four_words_and_counts_a_full_ring() -> None:
+    from rtcf._core._rings import Ring
+
+    ring = Ring.create(bytearray(Ring.nbytes(2, 32)), 2, 32)
+    words = ring.data.cast("q")
+    floats = ring.data.cast("d")
+    assert ring.push_words(words, floats, 8, 5, 500, 2.5)
+    assert ring.push_words(words, words, 1, 6, 600, True)
+    assert not ring.push_words(words, words, 8, 7, 700, 3)  # full
+    assert ring.dropped == 1 and len(ring) == 2
+    first = memoryview(ring.pop()).cast("q")
+    assert first.tolist()[:3] == [8, 5, 500]
+    assert memoryview(first.tobytes()[24:32]).cast("d")[0] == 2.5
+    second = memoryview(ring.pop()).cast("q").tolist()
+    assert second == [1, 6, 600, 1]
+    words.release()
+    floats.release()
+    ring.close()

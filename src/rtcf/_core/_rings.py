@@ -25,7 +25,7 @@ from __future__ import annotations
 import ctypes
 import platform
 from types import TracebackType
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     from _typeshed import ReadableBuffer, WriteableBuffer
@@ -222,6 +222,26 @@ class Ring:
                 return False
         offset = (head & self._mask) * self.record_size
         self.data[offset : offset + n] = record
+        ctl[_R_HEAD] = head + 1
+        return True
+
+    def push_words(self, words: Any, values: Any, a: int, b: int, c: int, d: Any) -> bool:
+        """Commit a record whose first four 8-byte words are ``a``, ``b``, ``c`` (into
+        ``words``, ``data`` cast to int64) and ``d`` (into ``values``: ``words``, or
+        ``data`` cast to float64); False, and one drop, if the ring is full. One call
+        where reserve, stores and commit would be three: a recording's hot path."""
+        ctl = self._ctl
+        head = ctl[_R_HEAD]
+        if head - self._tail_seen >= self.capacity:
+            tail = self._tail_seen = ctl[_R_TAIL]
+            if head - tail >= self.capacity:
+                ctl[_R_DROPPED] += 1
+                return False
+        w = ((head & self._mask) * self.record_size) >> 3
+        words[w] = a
+        words[w + 1] = b
+        words[w + 2] = c
+        values[w + 3] = d
         ctl[_R_HEAD] = head + 1
         return True
 
