@@ -23,6 +23,7 @@ from .._core._names import basename, namespace_of
 from .._core._runner import Runner, RunResult
 from .._launch._deployment import Deployment, RunnerDeployment
 from .._launch._files import load_deployment
+from .._runtime._live import FoxgloveLive, RecordSinks
 from .._runtime._mcap import McapRecording
 from .._runtime._supervisor import Bridge, LiveStatus, WorkerRunner
 from . import _evaluate
@@ -196,6 +197,8 @@ def cmd_launch(ns: argparse.Namespace) -> int:
             "be skipped (pip install 'rtcf[plot]'); timing.json will be written"
         )
     recording = _recording(ns) if ns.record else None
+    live = _live(ns) if ns.foxglove is not None else None
+    sink = RecordSinks(recording, live) if recording and live else (recording or live)
     status_line = None if ns.quiet else _STATUS
     bridge = _bridge(ns.middleware, target.name)
     runner = WorkerRunner(
@@ -252,7 +255,7 @@ def cmd_launch(ns: argparse.Namespace) -> int:
             _say(f"running {iterations} iterations ({kind} time)")
         started = time.perf_counter()
         try:
-            result = runner.run(iterations, trace=ns.trace, record=recording)
+            result = runner.run(iterations, trace=ns.trace, record=sink)
         except RtcfError as exc:  # a component, a watchdog, a hook that hung, a dead worker
             if ns.debug:
                 print(getattr(exc, "worker_traceback", ""), file=sys.stderr, end="")
@@ -267,6 +270,9 @@ def cmd_launch(ns: argparse.Namespace) -> int:
             _say(f"wrote {ns.trace}")
         if recording is not None:  # also after a fault: what led to it is in the file
             _finish_recording(recording, deployment, target, ns, result, wall)
+        if live is not None:
+            _say(f"foxglove: sent {live.sent} messages")
+            live.close()
         if result is not None:
             for fault in result.faults:
                 _say(f"fault: {fault.describe()}")
@@ -297,6 +303,23 @@ def _recording(ns: argparse.Namespace) -> McapRecording:
     from .._ros2._msgdef import message_definition
 
     return McapRecording(ns.record, ns.record_topics, message_definition=message_definition)
+
+
+def _live(ns: argparse.Namespace) -> FoxgloveLive:
+    from .._ros2._msgdef import message_definition
+
+    if ns.foxglove_host not in ("127.0.0.1", "localhost", "::1") and not ns.foxglove_any_host:
+        raise LaunchError(
+            f"--foxglove-host {ns.foxglove_host}: serving the loop's signals beyond loopback "
+            "needs --foxglove-any-host too (anyone who reaches the port sees every value)"
+        )
+    live = FoxgloveLive(
+        ns.foxglove_host, ns.foxglove, ns.foxglove_rate, ns.record_topics,
+        message_definition=message_definition,
+    )
+    _say(f"foxglove: serving {live.url} ({ns.foxglove_rate:g} messages per second per "
+         "topic at most); open it in Foxglove with 'Open connection'")
+    return live
 
 
 def _finish_recording(
@@ -533,6 +556,27 @@ def build_parser() -> argparse.ArgumentParser:
         metavar="REGEX",
         default=".*",
         help="record only the topics that this full-match regex matches (default: all)",
+    )
+    launch.add_argument(
+        "--foxglove",
+        nargs="?",
+        const=8765,
+        type=int,
+        metavar="PORT",
+        help="serve the recorded topics live on Foxglove's WebSocket protocol (default "
+        "port 8765; 0: any free port), on loopback",
+    )
+    launch.add_argument(
+        "--foxglove-host", default="127.0.0.1", metavar="HOST",
+        help="address to serve on (default 127.0.0.1; others need --foxglove-any-host)",
+    )
+    launch.add_argument(
+        "--foxglove-any-host", action="store_true",
+        help="allow --foxglove-host to be an address beyond loopback",
+    )
+    launch.add_argument(
+        "--foxglove-rate", type=float, default=50.0, metavar="HZ",
+        help="at most this many messages per second of loop time per topic (default 50)",
     )
     _add_costs(launch)
     launch.set_defaults(func=cmd_launch)

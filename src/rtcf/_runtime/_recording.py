@@ -18,7 +18,7 @@ import re
 import time
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Protocol
 
 from .._core._errors import ConfigurationError
 from .._core._loop_state import LoopState
@@ -256,6 +256,18 @@ def _port_type(
     if t.direction == "output":
         return writers[t.topic][0].type
     return fed[t.topic].type
+
+
+class RecordSink(Protocol):
+    """Where a run's records go: a file (McapRecording), a live view, or both."""
+
+    pattern: str  # the topics to record, a full-match regex
+
+    def begin(self, topics: list[RecordedTopic]) -> None: ...
+
+    def write(self, record: Record) -> None: ...
+
+    def end_run(self, dropped: dict[str, int], counts: dict[str, dict[str, int]]) -> None: ...
 
 
 @dataclass

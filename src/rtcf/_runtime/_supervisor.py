@@ -54,9 +54,8 @@ from .._core._tunables import (
     encode_update,
 )
 from ._doorbell import Doorbell, RungMailbox
-from ._mcap import McapRecording
 from ._port_channels import OUTPUT_RING_RECORDS, MappedPort, segment_size
-from ._recording import RecordedTopic, RecordingDrain
+from ._recording import RecordedTopic, RecordingDrain, RecordSink
 from ._recording import segment_size as recording_segment_size
 from ._shm import Segment, outgoing, send_segments
 from ._worker import (
@@ -129,7 +128,7 @@ class WorkerRunner:
         self._clock_box: Mailbox | None = None
         self._clock_bell: Doorbell | None = None  # rung with each /clock message
         self._timing: tuple[Ring, list[str], TimingAggregate] | None = None
-        self._recording: tuple[RecordingDrain, McapRecording] | None = None
+        self._recording: tuple[RecordingDrain, RecordSink] | None = None
         self._events: dict[str, Any] = {}
         self._hook: tuple[str, str, float] | None = None  # the hook the worker runs now
         self.exit_reported = False
@@ -647,7 +646,7 @@ class WorkerRunner:
         iterations: int | None = None,
         *,
         trace: str | None = None,
-        record: McapRecording | None = None,
+        record: RecordSink | None = None,
     ) -> RunResult:
         """Run the loop in the worker until ``iterations`` ran or :meth:`request_stop`;
         with ``record``, every value of the topics it selects goes into it."""
