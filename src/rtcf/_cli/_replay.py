@@ -6,7 +6,7 @@ component of it produces and some input reads is fed from the recording: in each
 iteration, the value recorded in that iteration, if any (as a middleware would have
 delivered it). Inputs fed from ROS in the recorded run are fed again; leave a
 component out of the launch file and the topics it wrote are fed in its place. The
-run is recorded like ``rtcf launch --record``, so ``rtcf diff`` compares the two:
+run is recorded like "rtcf launch --record", so "rtcf diff" compares the two:
 with the same components the replay is identical to the recording; with a changed
 controller the diff shows what changed.
 """
