@@ -44,3 +44,35 @@ def test_sum_test_recorded_on_ros1(topics, tmp_path):
     assert fed == [-10.0, 20.0, 1234.5]
     # the sums of every iteration: out = 3 * the input it read
     assert {3 * v for v in fed} <= set(by_topic["/rtcf/ros/out"])
+
+
+def test_a_ros1_message_type_is_recorded_as_ros1msg(topics, tmp_path):
+    """rtcf_example_msgs/Custom through the Identity example: the channels carry ros1
+    messages with their genpy definitions; genpy reads every field back."""
+    from geometry_msgs.msg import Point
+    from mcap.reader import make_reader
+    from rtcf_example_msgs.msg import Custom
+
+    path = tmp_path / "custom.mcap"
+    launch = rtcf_launch("rtcf_examples", "custom_message.launch", "--record", path)
+    sent = Custom(a=1.0 / 3.0, b=-2.5e-300, point=Point(x=1e300, y=-0.0, z=42.0))
+    try:
+        wait_for(launch, "running until Ctrl-C", timeout=30)
+        got = topics.sub("/mapped/out", Custom)
+        pub = topics.pub("/mapped/in", Custom)
+        assert wait_until(lambda: bool(got), 20.0, publish=lambda: pub.publish(sent))
+    finally:
+        (err,) = end(launch)
+    assert f"into {path}; dropped: 0" in err, err
+    with open(path, "rb") as f:
+        reader = make_reader(f)
+        seen = {}
+        for schema, channel, message in reader.iter_messages():
+            assert (schema.encoding, channel.message_encoding) == ("ros1msg", "ros1")
+            assert schema.name == "rtcf_example_msgs/Custom"
+            assert schema.data.decode() == Custom._full_text
+            seen.setdefault(channel.topic, []).append(Custom().deserialize(message.data))
+    assert set(seen) == {"/mapped/in", "/mapped/tmp", "/mapped/out"}
+    out = seen["/mapped/out"][-1]
+    assert (out.a, out.b, out.point.x, out.point.z) == (1.0 / 3.0, -2.5e-300, 1e300, 42.0)
+    assert str(out.point.y) == "-0.0"

@@ -79,14 +79,22 @@ class _Recorded:
                 }.get("rtcf", {})
                 self.attachments = {a.name: bytes(a.data) for a in reader.iter_attachments()}
                 f.seek(0)
-                reader = make_reader(f, decoder_factories=[DecoderFactory()])
-                for schema, channel, message, decoded in reader.iter_decoded_messages():
+                reader = make_reader(f)
+                factory = DecoderFactory()
+                decoders: dict[int, Any] = {}
+                for schema, channel, message in reader.iter_messages():
                     name = schema.name if schema is not None else ""
                     self.types[channel.topic] = name
                     if schema is not None:
                         self.schemas[name] = schema.data.decode()
+                    if channel.id not in decoders:  # CDR primitives; others stay bytes
+                        decoders[channel.id] = (
+                            factory.decoder_for(channel.message_encoding, schema)
+                            if name in _PRIMITIVE_TYPES else None
+                        )
+                    decode = decoders[channel.id]
                     self.values.setdefault(channel.topic, {})[message.sequence] = (
-                        name, message.data, decoded,
+                        name, message.data, decode(message.data) if decode else None,
                     )
         except OSError as exc:
             raise ConfigurationError(f"{path}: cannot read it: {exc.strerror}") from None
@@ -102,6 +110,12 @@ class _Recorded:
         return int(json.loads(self.metadata.get("iterations", "0")))
 
 
+_PRIMITIVE_TYPES = {
+    "std_msgs/msg/Float64", "std_msgs/msg/Int64", "std_msgs/msg/Bool", "std_msgs/msg/String",
+    "std_msgs/msg/Float64MultiArray",
+}
+
+
 def _value(port_type: type, entry: tuple[str, bytes, Any]) -> Any:
     """The recorded message as the port's value (the type the component reads)."""
     name, raw, decoded = entry
@@ -109,11 +123,10 @@ def _value(port_type: type, entry: tuple[str, bytes, Any]) -> Any:
         import numpy as np
 
         return np.array(list(decoded.data), dtype=np.float64)
-    if name in ("std_msgs/msg/Float64", "std_msgs/msg/Int64", "std_msgs/msg/Bool",
-                "std_msgs/msg/String") and port_type in (float, int, bool, str):
+    if name in _PRIMITIVE_TYPES and port_type in (float, int, bool, str):
         return port_type(decoded.data)
-    codec = codec_for(port_type)  # a ROS message type: its own deserializer, from the CDR
-    if codec is None or codec.kind != "ros2":
+    codec = codec_for(port_type)  # a ROS message type: its own deserializer, from its bytes
+    if codec is None or codec.kind not in ("ros2", "ros1"):
         raise ConfigurationError(f"a recorded {name} cannot feed a port of type "
                                  f"{port_type.__name__}")
     return codec.decode(raw)

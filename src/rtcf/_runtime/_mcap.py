@@ -3,7 +3,9 @@
 The supervisor writes what the worker's recording rings hold with the ``mcap`` and
 ``mcap-ros2-support`` packages (``pip install 'rtcf[record]'``): primitives as
 std_msgs (Float64, Int64, Bool, String), float arrays as std_msgs/Float64MultiArray,
-ROS 2 messages as themselves (their definition from the ament index). Each message's
+ROS 2 messages as themselves (CDR, their definition from the installed ``.msg``
+files), ROS 1 messages as themselves (``ros1msg`` schemas from genpy, ``ros1``
+encoding: MCAP holds both; Foxglove reads either). Each message's
 log and publish time is the iteration's stamp (ROS time of its scheduled start: wall
 time, /clock time, or from 0 under ``--sim``) and its sequence number the iteration.
 The file also carries what reproduces the run: the launch file, the runner's
@@ -76,7 +78,25 @@ class McapRecording:
         self.path = path
         self.pattern = pattern
         self._definition = message_definition
-        self._writer_class = Writer
+        class _Writer(Writer):
+            """mcap-ros2-support's writer, plus ROS 1 messages as they are serialized
+            (``ros1msg`` schemas, ``ros1`` encoding), through its underlying writer."""
+
+            def register_raw_schema(self, name: str, encoding: str, text: str) -> int:
+                return int(self._writer.register_schema(name, encoding, text.encode()))
+
+            def register_raw_channel(self, topic: str, encoding: str, schema_id: int) -> int:
+                return int(self._writer.register_channel(
+                    topic=topic, message_encoding=encoding, schema_id=schema_id
+                ))
+
+            def write_raw(self, channel_id: int, data: bytes, stamp: int, sequence: int) -> None:
+                self._writer.add_message(
+                    channel_id=channel_id, log_time=stamp, publish_time=stamp,
+                    sequence=sequence, data=data,
+                )
+
+        self._writer_class = _Writer
         self._writer: Any = None
         self._file: Any = None
         self._channels: dict[str, tuple[Any, Codec, str]] = {}  # topic -> schema, codec, kind
@@ -98,7 +118,11 @@ class McapRecording:
             if t.topic in self._channels:
                 continue
             name, text = self._schema(t)
-            schema = self._writer.register_msgdef(name, text)
+            if t.kind != "ros1":
+                schema = self._writer.register_msgdef(name, text)
+            else:  # genpy's serialization (no padding): written as it is
+                schema_id = self._writer.register_raw_schema(name, "ros1msg", text)
+                schema = self._writer.register_raw_channel(t.topic, "ros1", schema_id)
             codec = _codec_of(t)
             self._channels[t.topic] = (schema, codec, t.kind)
             self.messages.setdefault(t.topic, 0)
@@ -113,16 +137,21 @@ class McapRecording:
                     "definitions are at hand"
                 )
             return t.type_name, self._definition(t.type_name)
-        raise ConfigurationError(
-            f"{t.topic} has the ROS 1 message type {t.type_name}, which rtcf does not record "
-            "yet; leave it out with --record-topics"
-        )
+        if t.kind == "ros1":  # genpy keeps the full definition with the class
+            return t.type_name, str(_ros1_class(t.type_name)._full_text)  # type: ignore[attr-defined]
+        raise ConfigurationError(f"{t.topic}: values of kind {t.kind} cannot be recorded")
 
     def write(self, record: Record) -> None:
         schema, codec, kind = self._channels[record.topic]
+        stamp = max(0, record.stamp_ns)
+        if kind == "ros1":
+            self._writer.write_raw(schema, record.payload, stamp, record.iteration & 0xFFFFFFFF)
+            self.messages[record.topic] += 1
+            return
+        # ROS 2 messages are decoded and encoded again, not copied: rclpy's CDR leaves
+        # its alignment padding uninitialized, so equal messages would differ in bytes
         value = codec.decode(record.payload)
         message = value if kind == "ros2" else _primitive_message(kind, value)
-        stamp = max(0, record.stamp_ns)
         self._writer.write_message(
             record.topic,
             schema,
@@ -180,6 +209,8 @@ def _codec_of(t: RecordedTopic) -> Codec:
         cls = np.ndarray
     elif t.kind == "ros2":
         cls = _ros2_class(t.type_name)
+    elif t.kind == "ros1":
+        cls = _ros1_class(t.type_name)
     codec = codec_for(cls)
     assert codec is not None
     return codec
@@ -192,3 +223,11 @@ def _ros2_class(type_name: str) -> type:
     cls: type = getattr(importlib.import_module(f"{package}.msg"), name)
     return cls
 
+
+
+def _ros1_class(type_name: str) -> type:
+    import importlib
+
+    package, _, name = type_name.partition("/")
+    cls: type = getattr(importlib.import_module(f"{package}.msg"), name)
+    return cls
