@@ -26,7 +26,7 @@ from .._launch._files import load_deployment
 from .._runtime._live import FoxgloveLive, RecordSinks
 from .._runtime._mcap import McapRecording
 from .._runtime._supervisor import Bridge, LiveStatus, WorkerRunner
-from . import _evaluate
+from . import _evaluate, _recording_tools
 from . import _replay as _replay_command
 from ._costs import apply_measured_costs
 from ._introspection import mapping
@@ -608,6 +608,7 @@ def build_parser() -> argparse.ArgumentParser:
         _add_debug(p)
 
     _evaluate.add_parser(sub, _add_debug)
+    _recording_tools.add_parsers(sub, _add_debug)
     _replay_command.add_parser(sub, _add_debug)
 
     check = sub.add_parser("check", help="validate a launch file without running it")
