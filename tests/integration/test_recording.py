@@ -45,9 +45,14 @@ def test_the_cascade_recorded_under_sim_holds_every_value_of_every_port(tmp_path
     path = tmp_path / "run.mcap"
     result = run_rtcf("launch", CASCADE, "--sim", "--duration", "0.2", "--record", path)
     assert result.returncode == 0, result.stderr
-    assert f"recorded 1320 messages on 6 topics into {path}; dropped: 0" in result.stderr
+    # 1320 values of 6 port topics, and the 400 iterations' timing rows
+    assert f"recorded 1720 messages on 7 topics into {path}; dropped: 0" in result.stderr
     messages, types = read(path)
+    assert types.pop("/rt_runner/iteration_info") == "std_msgs/msg/Float64MultiArray"
     assert set(types.values()) == {"std_msgs/msg/Float64"}
+    info = [list(m.data) for _, m in messages["/rt_runner/iteration_info"]]
+    assert [row[0] for row in info] == list(range(N))
+    assert [row[1] for row in info] == [i * 500_000 * 1e-9 for i in range(N)]  # stamps [s]
     meta, attachments, sequences = mcap_extras(path)
     expected = _reference(N)
     # each topic's messages are its writes: the iterations of its component, in order
@@ -68,6 +73,13 @@ def test_the_cascade_recorded_under_sim_holds_every_value_of_every_port(tmp_path
     assert attachments["launch/cascade.launch"] == CASCADE.read_bytes()
     assert json.loads(attachments["settings.json"])["frequency"] == 2000.0
     assert json.loads(attachments["timing.json"])["iterations"] == N
+    assert rtcf_meta["timing_topic"] == "/rt_runner/iteration_info"
+    # rtcf evaluate (the original's evaluate_performance_rosbag) reads the timing rows
+    result = run_rtcf("evaluate", path, "2000", "--json", "--output", tmp_path / "fig2.png")
+    assert result.returncode == 0, result.stderr
+    fig2 = json.loads(result.stdout)
+    assert fig2["topic"] == "/rt_runner/iteration_info" and fig2["samples"] == N
+    assert (tmp_path / "fig2.png").stat().st_size > 0
 
 
 def test_every_kind_of_value_and_a_topic_filter(tmp_path):
@@ -83,6 +95,7 @@ def test_every_kind_of_value_and_a_topic_filter(tmp_path):
                       "--record-topics", "/[fibsa]")
     assert result.returncode == 0, result.stderr
     messages, types = read(path)
+    assert types.pop("/rt_runner/iteration_info") == "std_msgs/msg/Float64MultiArray"
     assert types == {
         "/f": "std_msgs/msg/Float64", "/i": "std_msgs/msg/Int64", "/b": "std_msgs/msg/Bool",
         "/s": "std_msgs/msg/String", "/a": "std_msgs/msg/Float64MultiArray",
@@ -98,7 +111,7 @@ def test_every_kind_of_value_and_a_topic_filter(tmp_path):
     result = run_rtcf("launch", launch, "--sim", "--duration", "0.1", "--record", only,
                       "--record-topics", "/f|/s")
     assert result.returncode == 0, result.stderr
-    assert set(read(only)[1]) == {"/f", "/s"}
+    assert set(read(only)[1]) == {"/f", "/s", "/rt_runner/iteration_info"}
 
 
 def test_a_real_time_recording_counts_what_it_could_not_keep(tmp_path):

@@ -197,6 +197,8 @@ def cmd_launch(ns: argparse.Namespace) -> int:
             "be skipped (pip install 'rtcf[plot]'); timing.json will be written"
         )
     recording = _recording(ns) if ns.record else None
+    if recording is not None:  # the timing rows too: rtcf evaluate run.mcap reads them
+        recording.timing_topic = f"{target.name.rstrip('/')}/iteration_info"
     live = _live(ns) if ns.foxglove is not None else None
     sink = RecordSinks(recording, live) if recording and live else (recording or live)
     status_line = None if ns.quiet else _STATUS

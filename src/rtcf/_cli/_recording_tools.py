@@ -379,6 +379,11 @@ def cmd_diff(ns: argparse.Namespace) -> int:
             raise
         print(f"rtcf: error: {exc}", file=sys.stderr)
         return 2
+    if not ns.timing:  # the loop's timing rows are measurements, not signals
+        timing = {r.metadata.get("timing_topic") for r in (a, b)} - {None, ""}
+        for rec in (a, b):
+            for topic in timing:
+                rec.messages.pop(str(topic), None)
     cmp = compare(a, b)
     print("\n".join(format_comparison(cmp)))
     return 0 if cmp.identical else 1
@@ -681,6 +686,12 @@ def add_parsers(sub: Any, add_debug: Callable[[argparse.ArgumentParser], None]) 
         default=".*",
         metavar="REGEX",
         help="compare only the topics this full-match regex matches",
+    )
+    diff.add_argument(
+        "--timing",
+        action="store_true",
+        help="compare the runner's iteration_info too (measured timing: it differs "
+        "between any two real-time runs, and a replay has none)",
     )
     diff.set_defaults(func=cmd_diff, log_level="warning")
     add_debug(diff)

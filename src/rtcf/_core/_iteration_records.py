@@ -1,7 +1,7 @@
 """``iteration_info`` as read back from a recording: one row per recorded iteration.
 
 A runner publishes one ``iteration_info`` message per iteration; a recording of them
-(a ROS 1 bag today, an MCAP file once rtcf records) is what the original's
+(a ROS 1 bag, or an MCAP file: rtcf's own recording or rosbag2's) is what the original's
 ``evaluate_performance_rosbag`` turned into the paper's Fig. 2. Each recording
 format has a reader of its own that returns :class:`IterationRecords`; ``rtcf
 evaluate`` (``rtcf._cli._evaluate``) does the rest, whatever the format was.

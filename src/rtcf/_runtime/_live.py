@@ -133,3 +133,8 @@ class RecordSinks:
     def end_run(self, dropped: dict[str, int], counts: dict[str, dict[str, int]]) -> None:
         for s in self.sinks:
             s.end_run(dropped, counts)
+
+    def timing_rows(self, rows: Any, offset_ns: int) -> None:
+        for s in self.sinks:
+            if hasattr(s, "timing_rows"):
+                s.timing_rows(rows, offset_ns)

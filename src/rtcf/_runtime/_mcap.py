@@ -20,6 +20,7 @@ from collections.abc import Callable
 from typing import Any
 
 from .._core._errors import ConfigurationError
+from .._core._timing import COL_CALC, COL_ITERATION, COL_JITTER, COL_SCHEDULED
 from ._codec import Codec, codec_for
 from ._recording import Record, RecordedTopic
 
@@ -100,6 +101,9 @@ class McapRecording:
         self._writer: Any = None
         self._file: Any = None
         self._channels: dict[str, tuple[Any, Codec, str]] = {}  # topic -> schema, codec, kind
+        # the runner's iteration_info, one message per timing row (rtcf evaluate reads it)
+        self.timing_topic: str | None = None
+        self._timing_schema: Any = None
         self.messages: dict[str, int] = {}
         self.dropped: dict[str, int] = {}
         self.oversize: dict[str, int] = {}
@@ -162,6 +166,31 @@ class McapRecording:
         )
         self.messages[record.topic] += 1
 
+    def timing_rows(self, rows: Any, offset_ns: int) -> None:
+        """The loop's timing rows as ``iteration_info`` (``[iteration, stamp s,
+        calculation s, wake-up jitter s]``, as ROS 2's ``~/iteration_info``), stamped
+        with the scheduled start plus ``offset_ns`` (ROS time)."""
+        if self.timing_topic is None or self._writer is None:
+            return
+        if self._timing_schema is None:
+            self._timing_schema = self._writer.register_msgdef(*PRIMITIVES["float_array"])
+            self.messages.setdefault(self.timing_topic, 0)
+        layout = {
+            "dim": [{"label": "iteration,stamp,calculation,jitter", "size": 4, "stride": 4}],
+            "data_offset": 0,
+        }
+        write = self._writer.write_message
+        for it, scheduled, jitter, calc in rows[
+            :, [COL_ITERATION, COL_SCHEDULED, COL_JITTER, COL_CALC]
+        ].tolist():
+            stamp = max(0, scheduled + offset_ns)
+            write(
+                self.timing_topic, self._timing_schema,
+                {"layout": layout, "data": [float(it), stamp * 1e-9, calc * 1e-9, jitter * 1e-9]},
+                log_time=stamp, publish_time=stamp, sequence=it & 0xFFFFFFFF,
+            )
+        self.messages[self.timing_topic] += len(rows)
+
     def end_run(self, dropped: dict[str, int], counts: dict[str, dict[str, int]]) -> None:
         """What a run's rings had to drop, and values too large for a record."""
         for topic, n in dropped.items():
@@ -178,6 +207,8 @@ class McapRecording:
             return
         meta = {k: v if isinstance(v, str) else json.dumps(v) for k, v in metadata.items()}
         meta["messages"] = json.dumps(self.messages)
+        if self.timing_topic is not None:
+            meta["timing_topic"] = self.timing_topic
         meta["dropped"] = json.dumps(self.dropped)
         meta["oversize"] = json.dumps(self.oversize)
         self._writer.add_metadata("rtcf", meta)

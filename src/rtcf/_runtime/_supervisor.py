@@ -641,6 +641,13 @@ class WorkerRunner:
     def stop_requested(self) -> bool:
         return self._ctl is not None and self._ctl[CTL_STOP] != 0
 
+    def _ros_offset(self) -> int:
+        """What turns a timing row's scheduled start into ROS time: 0 on a simulated
+        clock and on /clock time, else wall minus monotonic (taken once per run)."""
+        if self.simulated or self.settings.use_sim_time:
+            return 0
+        return time.time_ns() - time.monotonic_ns()
+
     def run(
         self,
         iterations: int | None = None,
@@ -669,6 +676,8 @@ class WorkerRunner:
         aggregate = TimingAggregate()
         if self.bridge is not None and self.settings.iteration_info:
             aggregate.on_rows = self.bridge.iteration_info
+        if record is not None and hasattr(record, "timing_rows"):
+            aggregate.on_rows = _with_timing_rows(aggregate.on_rows, record, self._ros_offset())
         self._timing = (ring, schedule, aggregate)
         self._events.pop("started", None)
         try:
@@ -855,6 +864,19 @@ def _both(
 
 def _note(level: int, text: str) -> LogRecord:
     return LogRecord(level, "rt_runner", text)
+
+
+def _with_timing_rows(
+    previous: Callable[[Any], None] | None, record: Any, offset_ns: int
+) -> Callable[[Any], None]:
+    """The timing rows to the recording (iteration_info) as well as where they went."""
+
+    def on_rows(rows: Any) -> None:
+        if previous is not None:
+            previous(rows)
+        record.timing_rows(rows, offset_ns)
+
+    return on_rows
 
 
 def _counts_only(timing: TimingSummary) -> TimingSummary:
