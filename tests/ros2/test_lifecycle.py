@@ -11,6 +11,7 @@ import pytest
 from lifecycle_msgs.msg import State, Transition, TransitionEvent
 from lifecycle_msgs.srv import ChangeState, GetAvailableStates, GetAvailableTransitions, GetState
 from rclpy.lifecycle import LifecycleNode
+from rclpy.qos import DurabilityPolicy, QoSProfile
 from std_msgs.msg import Float64
 
 from rtcf._core import _lifecycle
@@ -57,8 +58,11 @@ class Watch:
         self.messages = 0
         self.events = []
         node.create_subscription(Float64, topic, self._message, 100)
+        # transient local, as the face publishes them: the events of an activation that
+        # happened before discovery matched the two sides still arrive
         node.create_subscription(
-            TransitionEvent, f"{component}/transition_event", self.events.append, 10
+            TransitionEvent, f"{component}/transition_event", self.events.append,
+            QoSProfile(depth=10, durability=DurabilityPolicy.TRANSIENT_LOCAL),
         )
 
     def _message(self, msg):

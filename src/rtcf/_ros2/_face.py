@@ -207,7 +207,15 @@ class LifecycleFace:
         self._lock = threading.Lock()
         self.known = STATE_IDS.get(state, 0)  # the last state it published or answered
         self.epoch = 0  # counts changes through this face: an older poll's answer is stale
-        self.events = node.create_publisher(TransitionEvent, "~/transition_event", 10)
+        # transient local: a subscriber that comes late (a lifecycle manager started
+        # after the component, a test whose discovery lags) still gets the last
+        # transitions; volatile subscribers (the default) match it as well
+        from rclpy.qos import DurabilityPolicy, QoSProfile
+
+        self.events = node.create_publisher(
+            TransitionEvent, "~/transition_event",
+            QoSProfile(depth=10, durability=DurabilityPolicy.TRANSIENT_LOCAL),
+        )
         self._services = [
             node.create_service(GetState, "~/get_state", self._get_state),
             node.create_service(ChangeState, "~/change_state", self._change_state),
