@@ -9,7 +9,7 @@ from std_msgs.msg import Float64, Int64
 
 from .._proc import wait_for
 from .test_node_args import CLOCKED, clock_msg
-from .test_nodes import STARTED, end, start  # noqa: F401  (STARTED: ended after each test)
+from .test_nodes import STARTED, end, start
 from .test_topics import spin_until
 
 pytestmark = pytest.mark.integration
@@ -26,6 +26,15 @@ def test_a_launchers_every_and_phase_make_its_component_run_slower(ros_node, tmp
         Clock, "/clock", QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT)
     )
     r = start("rt_runner", "--ros-args", "-r", "__node:=rate_runner", "--params-file", params)
+    try:
+        _check(ros_node, r, pub, fast, slow, slow_t)
+    finally:  # whatever happened: no process outlives the test
+        end(*STARTED)
+        STARTED.clear()
+    assert r.returncode == 0
+
+
+def _check(ros_node, r, pub, fast, slow, slow_t):
     wait_for(r, "ready: 10 Hz")
     a = start("rt_launcher", "rtcf_ros2_components", "TimeEcho", "--ros-args",
               "-r", "__node:=fast", "-p", "runner:=/rate_runner",
@@ -51,4 +60,3 @@ def test_a_launchers_every_and_phase_make_its_component_run_slower(ros_node, tmp
     assert slow == [1, 4, 7, 10]
     assert slow_t == pytest.approx([0.1, 0.4, 0.7, 1.0])
     end(b, a, r)
-    assert r.returncode == 0
