@@ -384,6 +384,11 @@ def cmd_diff(ns: argparse.Namespace) -> int:
         for rec in (a, b):
             for topic in timing:
                 rec.messages.pop(str(topic), None)
+            # log times count from the first compared message: the timing rows' stamps
+            # come from the supervisor's clock offset, a few µs from the worker's
+            times = [x.log_time for msgs in rec.messages.values() for x in msgs]
+            if times:
+                rec.start_ns = min(times)
     cmp = compare(a, b)
     print("\n".join(format_comparison(cmp)))
     return 0 if cmp.identical else 1
