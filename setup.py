@@ -7,11 +7,22 @@ lib/rtcf/rt_launcher (which run them) into the prefix, for pip and colcon alike
 (docs/ros2.md, "Installing").
 """
 
+import platform
 from pathlib import Path
 from typing import Any
 
-from setuptools import setup
+from setuptools import Extension, setup
 from setuptools.dist import Distribution
+
+# The memory fences of the channels between processes (src/rtcf/_core/_atomics.c).
+# x86-64's store order makes them unnecessary there, so a machine without a C compiler
+# still installs rtcf; anywhere else the build must succeed (rtcf._core._rings refuses
+# to run across processes without them).
+_FENCES = Extension(
+    "rtcf._core._atomics",
+    sources=["src/rtcf/_core/_atomics.c"],
+    optional=platform.machine().lower() in ("x86_64", "amd64", "i386", "i686"),
+)
 
 
 def _link_project_files() -> None:
@@ -54,4 +65,4 @@ class _Distribution(Distribution):
 
 
 _link_project_files()
-setup(distclass=_Distribution)
+setup(distclass=_Distribution, ext_modules=[_FENCES])

@@ -18,6 +18,7 @@ ROOT = Path(__file__).resolve().parents[2]
         ("paper_evaluation", "ratio rtcf / cyclictest"),
         ("overhead", "ratio rtcf / plain"),
         ("scaling", "| 1000 "),
+        ("channels", "| mailbox try_read_into "),
     ],
 )
 def test_benchmark_runs_quick_and_writes_its_results(name, printed):

@@ -2,7 +2,10 @@
 
 The child process runs ``sys.executable -c <code>``; the test process is the other
 side. Each test creates its segments itself and hands them to the child as inherited
-file descriptors (anonymous memory: nothing has a name in /dev/shm).
+file descriptors (anonymous memory: nothing has a name in /dev/shm). The ring and
+mailbox tests run twice on x86: as the CPU needs them (no fences) and with the fences
+that weakly ordered CPUs need forced on (RTCF_FENCES=1, in both processes);
+scripts/test-aarch64 runs them on arm64 under QEMU, with RTCF_CHANNEL_TEST_N records.
 """
 
 from __future__ import annotations
@@ -19,6 +22,7 @@ from pathlib import Path
 
 import pytest
 
+from rtcf._core import _rings
 from rtcf._core._rings import Mailbox, Ring
 from rtcf._runtime._shm import Segment
 
@@ -27,11 +31,12 @@ from .conftest import SRC
 
 pytestmark = pytest.mark.integration
 
-N = 1_000_000
+# fewer under emulation (scripts/test-aarch64), where each record takes ~20x longer
+N = int(os.environ.get("RTCF_CHANNEL_TEST_N", "1000000"))
 DEADLINE_S = 60.0  # a hang fails the test instead of blocking the run
 
 # Words of the control line at the start of each test segment.
-DONE, STARTED, ELAPSED_NS = 0, 1, 2
+DONE, STARTED, ELAPSED_NS, FENCED = 0, 1, 2, 3
 
 # f(seq) of the records; the same expression is in the producer's code.
 PATTERN = "(seq * 0x9E3779B1) ^ 0x5A5A5A5A"
@@ -43,6 +48,7 @@ def pattern(seq: int) -> int:
 
 PREAMBLE = """
 import sys, time
+from rtcf._core import _rings
 from rtcf._core._rings import Mailbox, Ring
 from rtcf._runtime._shm import Segment
 N = int(sys.argv[2])
@@ -52,6 +58,7 @@ ctl = seg.buf[:64].cast("q")
 
 EPILOGUE = """
 ctl[ELAPSED_NS] = int((time.perf_counter() - t0) * 1e9)
+ctl[FENCED] = int(_rings.FENCED)
 ctl[DONE] = 1  # after the last commit or write: the other side may stop once empty
 """
 
@@ -116,7 +123,7 @@ def child_env() -> dict[str, str]:
 
 def start(code: str, *args: object) -> subprocess.Popen[str]:
     """Run ``code`` in a child; a Segment among ``args`` is passed as its inherited fd."""
-    consts = f"DONE, STARTED, ELAPSED_NS = {DONE}, {STARTED}, {ELAPSED_NS}\n"
+    consts = f"DONE, STARTED, ELAPSED_NS, FENCED = {DONE}, {STARTED}, {ELAPSED_NS}, {FENCED}\n"
     fds = tuple(a.fd for a in args if isinstance(a, Segment))
     argv = [str(a.fd) if isinstance(a, Segment) else str(a) for a in args]
     return subprocess.Popen(
@@ -157,6 +164,18 @@ def child(code: str, *args: object) -> Iterator[subprocess.Popen[str]]:
             proc.kill()
         proc.communicate()
     assert rtcf_shm_names() == []
+
+
+@pytest.fixture(
+    params=["native", "forced"] if _rings.TOTAL_STORE_ORDER else ["native"],
+    ids=lambda mode: f"fences-{mode}",
+)
+def fences(request: pytest.FixtureRequest, monkeypatch: pytest.MonkeyPatch) -> str:
+    """Fences as this CPU needs them, or forced on in this process and the child."""
+    if request.param == "forced":
+        monkeypatch.setenv("RTCF_FENCES", "1")
+        monkeypatch.setattr(_rings, "FENCED", True)
+    return str(request.param)
 
 
 def check_alive(proc: subprocess.Popen[str], t_end: float) -> None:
@@ -207,7 +226,7 @@ def consume(
         pytest.param(2**20, PRODUCE_PUSH, id="big-ring-push"),
     ],
 )
-def test_ring_between_processes(capacity: int, producer: str) -> None:
+def test_ring_between_processes(capacity: int, producer: str, fences: str) -> None:
     with segment(64 + Ring.nbytes(capacity, 40)) as seg:
         ctl = seg.buf[:64].cast("q")
         ring = Ring.create(seg.buf[64:], capacity, 40)
@@ -219,6 +238,7 @@ def test_ring_between_processes(capacity: int, producer: str) -> None:
                 finish(proc)
             dropped = ring.dropped
             produce_s = ctl[ELAPSED_NS] / 1e9
+            child_fenced = ctl[FENCED]
         finally:
             ring.close()
             ctl.release()
@@ -228,6 +248,7 @@ def test_ring_between_processes(capacity: int, producer: str) -> None:
         f"received {len(received):,} ({len(received) / elapsed:,.0f}/s end to end), "
         f"dropped {dropped:,}"
     )
+    assert child_fenced == _rings.FENCED == (fences == "forced" or not _rings.TOTAL_STORE_ORDER)
     assert torn == []
     assert all(a < b for a, b in pairwise(received))
     assert len(received) + dropped == N
@@ -240,7 +261,7 @@ def test_ring_between_processes(capacity: int, producer: str) -> None:
         assert received == list(range(N))
 
 
-def test_mailbox_between_processes() -> None:
+def test_mailbox_between_processes(fences: str) -> None:
     size = 256
     final = (N).to_bytes(8, "little") * 32
     with segment(64 + Mailbox.nbytes(size)) as seg:
@@ -278,6 +299,7 @@ def test_mailbox_between_processes() -> None:
             after = box.read()
             version = box.version
             write_s = ctl[ELAPSED_NS] / 1e9
+            child_fenced = ctl[FENCED]
         finally:
             box.close()
             ctl.release()
@@ -286,6 +308,7 @@ def test_mailbox_between_processes() -> None:
         f"\nmailbox: writer {N / write_s:,.0f} writes/s; reader {reads:,} attempts, "
         f"{changed:,} changed during the copy (-2), {never:,} before the first write"
     )
+    assert child_fenced == _rings.FENCED == (fences == "forced" or not _rings.TOTAL_STORE_ORDER)
     assert torn == []
     assert backwards == []
     assert last == N

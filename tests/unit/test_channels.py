@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import struct
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 
 import pytest
 
@@ -333,3 +333,133 @@ def test_push_words_commits_four_words_and_counts_a_full_ring() -> None:
     words.release()
     floats.release()
     ring.close()
+
+
+# -- Memory fences (weakly ordered CPUs) ----------------------------------------
+
+
+def test_fences_are_on_exactly_where_the_cpu_needs_them() -> None:
+    import os
+
+    from rtcf._core import _atomics, _rings
+
+    # the extension is built on install (setup.py); CI installs it everywhere
+    _atomics.release_fence()
+    _atomics.acquire_fence()
+    forced = os.environ.get("RTCF_FENCES") == "1"
+    assert _rings.FENCED == (forced or not _rings.TOTAL_STORE_ORDER)
+
+
+class _FenceSpy:
+    """Stands in for the fences and records what the channel's memory held at each one."""
+
+    def __init__(self, monkeypatch: pytest.MonkeyPatch, snapshot: Callable[[], tuple]) -> None:
+        from rtcf._core import _rings
+
+        self.seen: list[tuple] = []
+        monkeypatch.setattr(_rings, "FENCED", True)
+        monkeypatch.setattr(_rings, "acquire_fence", lambda: self.seen.append(("acq", *snapshot())))
+        monkeypatch.setattr(_rings, "release_fence", lambda: self.seen.append(("rel", *snapshot())))
+
+
+@pytest.mark.parametrize("how", ["push", "reserve-commit", "push_words"])
+def test_a_producer_fences_between_the_record_and_the_head(
+    monkeypatch: pytest.MonkeyPatch, how: str
+) -> None:
+    from rtcf._core._rings import _R_HEAD
+
+    buf = bytearray(Ring.nbytes(2, 32))
+    ring = Ring.create(buf, 2, 32)
+    ctl = memoryview(buf).cast("q")
+    words = ring.data.cast("q")
+    spy = _FenceSpy(monkeypatch, lambda: (ctl[_R_HEAD], words[0]))
+    if how == "push":
+        ring.push(struct.pack("4q", 7, 7, 7, 7))
+    elif how == "reserve-commit":
+        words[ring.reserve() >> 3] = 7
+        ring.commit()
+    else:
+        ring.push_words(words, words, 7, 7, 7, 7)
+    # one release fence, with the record written and the head not yet moved
+    assert spy.seen == [("rel", 0, 7)]
+    assert ctl[_R_HEAD] == 1
+    words.release()
+    ctl.release()
+    ring.close()
+
+
+def test_a_producer_fences_after_reading_the_tail_of_a_full_looking_ring(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    from rtcf._core._rings import _R_TAIL
+
+    ring = _ring(2)
+    consumer = Ring.open(ring._ctl.obj)  # the same buffer, the other side
+    ring.push(_rec(1))
+    ring.push(_rec(2))
+    assert consumer.pop() == _rec(1)  # frees a slot the producer has not seen free yet
+    ctl = ring._ctl
+    spy = _FenceSpy(monkeypatch, lambda: (ctl[_R_TAIL],))
+    assert ring.push(_rec(3))
+    # the tail is read, then an acquire fence, then the slot written, then a release
+    assert spy.seen == [("acq", 1), ("rel", 1)]
+    consumer.close()
+    ring.close()
+
+
+@pytest.mark.parametrize("how", ["pop", "pop_into", "pending-release"])
+def test_a_consumer_fences_after_the_head_and_before_the_tail(
+    monkeypatch: pytest.MonkeyPatch, how: str
+) -> None:
+    from rtcf._core._rings import _R_TAIL
+
+    ring = _ring(4)
+    ring.push(_rec(5))
+    out = bytearray(8)
+    ctl = ring._ctl
+    spy = _FenceSpy(monkeypatch, lambda: (ctl[_R_TAIL], bytes(out)))
+    if how == "pop":
+        assert ring.pop() == _rec(5)
+        out[:] = _rec(5)  # pop copies internally; its two fences are what is checked
+        assert [s[:2] for s in spy.seen] == [("acq", 0), ("rel", 0)]
+    elif how == "pop_into":
+        assert ring.pop_into(out)
+        # acquire before the copy, release after it and before the tail moves
+        assert spy.seen == [("acq", 0, bytes(8)), ("rel", 0, _rec(5))]
+    else:
+        slot, n = ring.pending()
+        out[:] = ring.data[slot * 8 : slot * 8 + 8]
+        ring.release(n)
+        assert spy.seen == [("acq", 0, bytes(8)), ("rel", 0, _rec(5))]
+    assert ctl[_R_TAIL] == 1
+    ring.close()
+
+
+def test_a_mailbox_writer_fences_around_the_payload_and_before_latest(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    from rtcf._core._rings import _M_LATEST
+
+    box = Mailbox.create(bytearray(Mailbox.nbytes(8)), 8)
+    box.write(_rec(1))  # into buffer 1, now latest: the next write goes to buffer 0
+    meta, payload, ctl = box._meta[0], box._payload[0], box._ctl
+    spy = _FenceSpy(monkeypatch, lambda: (meta[0], bytes(payload), ctl[_M_LATEST]))
+    box.write(_rec(2))
+    assert spy.seen == [
+        ("rel", 1, bytes(8), 1),  # odd sequence before any payload
+        ("rel", 1, _rec(2), 1),  # payload before the even sequence
+        ("rel", 2, _rec(2), 1),  # even sequence before 'latest' points here
+    ]
+    assert ctl[_M_LATEST] == 0
+    box.close()
+
+
+def test_a_mailbox_reader_fences_between_its_loads(monkeypatch: pytest.MonkeyPatch) -> None:
+    box = Mailbox.create(bytearray(Mailbox.nbytes(8)), 8)
+    box.write(_rec(9))
+    out = bytearray(8)
+    spy = _FenceSpy(monkeypatch, lambda: (bytes(out),))
+    assert box.try_read_into(out) == 8
+    # after 'latest', after the sequence (payload not yet copied), after the copy
+    assert spy.seen == [("acq", bytes(8)), ("acq", bytes(8)), ("acq", _rec(9))]
+    box.close()

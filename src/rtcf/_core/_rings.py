@@ -16,13 +16,15 @@ other cores in program order, loads are not reordered with other loads, and a
 store is not moved before an earlier load. So a producer that writes a record and
 then the head counter publishes a complete record, and a consumer that reads the
 head, then the record, then stores the tail never lets the producer reuse a slot
-it is still reading. Weakly ordered CPUs (ARM, POWER) need barriers between those
-steps, which pure Python cannot issue: see :data:`MEMORY_MODEL_OK`.
+it is still reading. Weakly ordered CPUs (ARMv8, POWER, RISC-V) may reorder those
+steps: there each one is separated by a fence from :mod:`rtcf._core._atomics` (a small
+C extension, since Python cannot issue a fence), where :data:`FENCED` is true.
 """
 
 from __future__ import annotations
 
 import ctypes
+import os
 import platform
 from types import TracebackType
 from typing import TYPE_CHECKING, Any
@@ -30,13 +32,34 @@ from typing import TYPE_CHECKING, Any
 if TYPE_CHECKING:
     from _typeshed import ReadableBuffer, WriteableBuffer
 
-__all__ = ["MEMORY_MODEL_OK", "Mailbox", "Ring"]
+__all__ = ["FENCED", "TOTAL_STORE_ORDER", "Mailbox", "Ring"]
 
-# The orderings described in the module docstring hold on x86 only. Other
-# architectures need memory barriers around the counter updates (not provided
-# yet); channels still work there in a single process, but not across processes.
-# On 32-bit x86 an 8-byte copy may also be split in two: counters below 2**31 are safe.
-MEMORY_MODEL_OK = platform.machine() in ("x86_64", "AMD64", "i686", "i386")
+# x86 keeps stores, and loads, in program order (total store order): the channels need
+# no fence there. On 32-bit x86 an 8-byte copy may also be split in two: counters below
+# 2**31 are safe.
+TOTAL_STORE_ORDER = platform.machine().lower() in ("x86_64", "amd64", "i686", "i386")
+
+try:
+    from ._atomics import acquire_fence, release_fence
+except ImportError:
+    if not TOTAL_STORE_ORDER:
+        raise ImportError(
+            f"rtcf's memory fences (rtcf._core._atomics) are not built, and a "
+            f"{platform.machine()} CPU needs them for the channels between the real-time "
+            f"worker and the supervisor: reinstall rtcf where a C compiler and the Python "
+            f"headers are (apt-get install gcc python3-dev)"
+        ) from None
+
+    def acquire_fence() -> None:
+        raise RuntimeError("rtcf._core._atomics is not built: FENCED must stay False")
+
+    release_fence = acquire_fence
+
+# Whether the channels call the fences: on every CPU that needs them. RTCF_FENCES=1
+# turns them on where they are not needed (x86), so that the path weakly ordered CPUs
+# take runs in every test; benchmarks/channels.py measures what it costs. Read by
+# each channel operation (one global load and test): a test may switch it.
+FENCED = not TOTAL_STORE_ORDER or os.environ.get("RTCF_FENCES", "") == "1"
 
 _CACHE_LINE = 64
 
@@ -103,6 +126,8 @@ class Ring:
         self._ctl = view[:_RING_HEADER].cast("q")
         self.data = view[_RING_HEADER : _RING_HEADER + capacity * record_size]
         self._tail_seen = self._ctl[_R_TAIL]  # a lower bound of the tail (it only grows)
+        if FENCED:  # the consumer's reads of the slots before this tail, before our writes
+            acquire_fence()
         self._next = 0  # head after the reserved record; 0 when none is reserved
 
     @staticmethod
@@ -184,6 +209,8 @@ class Ring:
         if head - self._tail_seen >= self.capacity:
             # Looks full from the cached tail: only now read the consumer's line.
             tail = self._tail_seen = ctl[_R_TAIL]
+            if FENCED:  # the consumer is done reading the slots it released
+                acquire_fence()
             if head - tail >= self.capacity:
                 ctl[_R_DROPPED] += 1
                 self._next = 0
@@ -196,6 +223,8 @@ class Ring:
         head = self._next
         if not head:
             raise RuntimeError("Ring.commit() without a successful reserve()")
+        if FENCED:  # the record, then the head
+            release_fence()
         self._ctl[_R_HEAD] = head
         self._next = 0
 
@@ -217,11 +246,15 @@ class Ring:
         head = ctl[_R_HEAD]
         if head - self._tail_seen >= self.capacity:
             tail = self._tail_seen = ctl[_R_TAIL]
+            if FENCED:
+                acquire_fence()
             if head - tail >= self.capacity:
                 ctl[_R_DROPPED] += 1
                 return False
         offset = (head & self._mask) * self.record_size
         self.data[offset : offset + n] = record
+        if FENCED:
+            release_fence()
         ctl[_R_HEAD] = head + 1
         return True
 
@@ -234,6 +267,8 @@ class Ring:
         head = ctl[_R_HEAD]
         if head - self._tail_seen >= self.capacity:
             tail = self._tail_seen = ctl[_R_TAIL]
+            if FENCED:
+                acquire_fence()
             if head - tail >= self.capacity:
                 ctl[_R_DROPPED] += 1
                 return False
@@ -242,6 +277,8 @@ class Ring:
         words[w + 1] = b
         words[w + 2] = c
         values[w + 3] = d
+        if FENCED:
+            release_fence()
         ctl[_R_HEAD] = head + 1
         return True
 
@@ -270,6 +307,8 @@ class Ring:
         ctl = self._ctl
         tail = ctl[_R_TAIL]
         n = ctl[_R_HEAD] - tail
+        if FENCED:  # the head, then the records it covers
+            acquire_fence()
         slot = tail & self._mask
         room = self.capacity - slot
         return slot, (n if n < room else room)
@@ -281,6 +320,8 @@ class Ring:
         waiting = ctl[_R_HEAD] - tail
         if not 0 <= n <= waiting:
             raise ValueError(f"cannot release {n} records: {waiting} are waiting")
+        if FENCED:  # done reading the records, then hand their slots back
+            release_fence()
         ctl[_R_TAIL] = tail + n
 
     def pop(self) -> bytes | None:
@@ -289,8 +330,12 @@ class Ring:
         tail = ctl[_R_TAIL]
         if ctl[_R_HEAD] == tail:
             return None
+        if FENCED:
+            acquire_fence()
         offset = (tail & self._mask) * self.record_size
         record = self.data[offset : offset + self.record_size].tobytes()
+        if FENCED:
+            release_fence()
         ctl[_R_TAIL] = tail + 1
         return record
 
@@ -304,6 +349,8 @@ class Ring:
                 raise ValueError(f"output buffer of {len(out)} bytes, records have {size}")
             if ctl[_R_HEAD] == tail:
                 return False
+            if FENCED:
+                acquire_fence()
             offset = (tail & self._mask) * size
             out[:size] = self.data[offset : offset + size]
         else:
@@ -312,8 +359,12 @@ class Ring:
                     raise ValueError(f"output buffer of {len(flat)} bytes, records have {size}")
                 if ctl[_R_HEAD] == tail:
                     return False
+                if FENCED:
+                    acquire_fence()
                 offset = (tail & self._mask) * size
                 flat[:size] = self.data[offset : offset + size]
+        if FENCED:
+            release_fence()
         ctl[_R_TAIL] = tail + 1
         return True
 
@@ -455,11 +506,17 @@ class Mailbox:
         meta = self._meta[b]
         seq = meta[_M_SEQ]
         meta[_M_SEQ] = seq + 1  # odd: being written
+        if FENCED:  # odd before any of the payload
+            release_fence()
         self._payload[b][:n] = data
         meta[_M_LENGTH] = n
         version = ctl[_M_VERSION] + 1
         meta[_M_STAMP] = version
+        if FENCED:  # the payload before even
+            release_fence()
         meta[_M_SEQ] = seq + 2  # even: complete
+        if FENCED:  # a reader that follows 'latest' here finds the buffer complete
+            release_fence()
         ctl[_M_LATEST] = b
         ctl[_M_VERSION] = version
 
@@ -471,12 +528,16 @@ class Mailbox:
         may then hold a partial copy).
         """
         b = self._ctl[_M_LATEST]
+        if FENCED:  # 'latest', then its buffer's sequence
+            acquire_fence()
         meta = self._meta[b]
         seq = meta[_M_SEQ]
         if seq & 1:
             return -2
         if not seq:
             return -1
+        if FENCED:  # the sequence, then the payload
+            acquire_fence()
         stamp = meta[_M_STAMP]
         if stamp < self._newest:  # older than what this reader already returned
             return -2
@@ -495,6 +556,8 @@ class Mailbox:
                     self._too_small(len(flat), n, meta, seq)
                     return -2
                 flat[:n] = payload
+        if FENCED:  # the payload, then the sequence again
+            acquire_fence()
         if meta[_M_SEQ] != seq:
             return -2
         self._newest = stamp
