@@ -223,3 +223,23 @@ def test_a_launchers_node_tunes_its_component_in_the_runner(ros_node):
     assert not result.successful and "not one of" in result.reason
     levels = SetLoggerLevels.Request(levels=[LoggerLevel(name="tl", level=40)])
     assert call(ros_node, SetLoggerLevels, "/tl/set_logger_levels", levels).results[0].successful
+
+
+def test_a_launcher_stops_waiting_for_an_unload_once_its_runner_is_gone(ros_node):
+    r = runner("rt_runner")
+    a = None
+    try:
+        wait_for(r, "ready")
+        a = launcher("/rt_runner", "stranded", "Mimo")
+        wait_for(a, "loaded into")
+        # the runner dies without a word; the launcher, stopped at once, still finds
+        # its unload service (DDS keeps it until the lease ends) and asks: no answer
+        r.kill()
+        r.communicate()
+        a.send_signal(signal.SIGINT)
+        _, err = a.communicate(timeout=90)
+        # it gave up when the runner left the graph, not after the answer's 60 s
+        assert "warning: unload refused: the runner /rt_runner is gone" in err, err
+        assert a.returncode == 0
+    finally:
+        end(r, *(p for p in (a,) if p is not None))

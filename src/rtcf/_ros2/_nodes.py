@@ -50,6 +50,7 @@ from .._runtime._requests import Request, RequestQueue, serve_request
 from ._face import ComponentFace, ros_logger_name
 
 WATCH_EVERY_S = 1.0
+ANSWER_TIMEOUT_S = 60.0  # the longest a launcher waits for its runner's answer
 # the launcher's own, never a component's (rclpy's nodes declare the first two)
 _RESERVED = {"use_sim_time", "start_type_description_service", "runner", "is_first",
              "topics_ignore_for_graph"}
@@ -354,6 +355,8 @@ def launcher_main(argv: list[str] | None = None) -> int:
         if key not in _RESERVED and key not in ("rt_package", "rt_type"):
             values[f"param.{key}"] = value
 
+    presence = _Presence()
+
     def request(service: str, vals: dict[str, Any], wait_s: float = 30.0) -> tuple[bool, str]:
         client = node.create_client(SetParametersAtomically, f"{runner}/{service}")
         if not client.wait_for_service(timeout_sec=wait_s):
@@ -365,13 +368,37 @@ def launcher_main(argv: list[str] | None = None) -> int:
             if not (isinstance(v, list) and not v)
         ]
         future = client.call_async(req)
-        executor.spin_until_future_complete(future, timeout_sec=60.0)
+        # a load or unload runs the component's hooks, which may take long; a runner
+        # that dies meanwhile (Ctrl-C to both, a crash) never answers: stop waiting
+        # once it has left the graph
+        deadline = time.monotonic() + ANSWER_TIMEOUT_S
+        next_check = time.monotonic() + WATCH_EVERY_S
+        presence.seen.add(runner)  # it offers the service, so it exists
+        while not future.done() and time.monotonic() < deadline:
+            executor.spin_once(timeout_sec=0.1)
+            if time.monotonic() >= next_check:
+                next_check += WATCH_EVERY_S
+                presence.update(node)
+                if presence.gone(runner):
+                    return False, f"the runner {runner} is gone"
         if not future.done() or future.result() is None:
-            return False, f"{runner}/{service} did not answer"
+            return False, f"{runner}/{service} did not answer within {ANSWER_TIMEOUT_S:g} s"
         result = future.result().result
         return bool(result.successful), str(result.reason)
 
     who = f"rt_launcher {me}"
+    # Ctrl-C or SIGTERM from here on ends the launcher through the unload below (a
+    # component being loaded still is, and then unloaded); a second one at once
+    stop = threading.Event()
+
+    def handler(signum: int, frame: FrameType | None) -> None:
+        if stop.is_set():
+            _say(who, "interrupted again: exiting without unloading")
+            raise SystemExit(130)
+        stop.set()
+
+    signal.signal(signal.SIGINT, handler)
+    signal.signal(signal.SIGTERM, handler)
     ok, reason = request("load_component", values)
     if not ok:
         _say(who, f"error: {runner} refused to load {module}.{class_name}: {reason}")
@@ -384,17 +411,8 @@ def launcher_main(argv: list[str] | None = None) -> int:
     link = _RunnerLink(node, runner, who)
     face = ComponentFace(node, info, link, level, link)
     full = str(info["name"])
-    stop = threading.Event()
-
-    def handler(signum: int, frame: FrameType | None) -> None:
-        stop.set()
-
-    signal.signal(signal.SIGINT, handler)
-    signal.signal(signal.SIGTERM, handler)
     status = 0
     last_check = 0.0
-    presence = _Presence()
-    presence.seen.add(runner)  # it answered, so it exists even if the graph lags behind
     while not stop.is_set():
         executor.spin_once(timeout_sec=0.1)
         now = time.monotonic()
