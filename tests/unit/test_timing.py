@@ -156,3 +156,20 @@ def test_histograms_are_json_ready() -> None:
     agg.consume(ring, ["/a"])
     doc = json.loads(json.dumps(agg.histograms()))
     assert doc["calc"]["count"] == 1 and set(doc["components"]) == {"/a"}
+
+
+def test_aggregate_takes_a_backlog_in_bounded_batches() -> None:
+    from rtcf._core._timing import CONSUME_BATCH
+
+    # after a stall the ring holds thousands of rows: they reach on_rows (iteration_info,
+    # the recording) in batches of at most CONSUME_BATCH, in order, every one of them
+    n = 2 * CONSUME_BATCH + 100
+    ring = local_ring(1, 4 * CONSUME_BATCH)
+    _push_rows(ring, [_row(i, 1000, 2000, [500], 0) for i in range(n)])
+    agg = TimingAggregate()
+    batches: list[list[int]] = []
+    agg.on_rows = lambda rows: batches.append(rows[:, 0].tolist())
+    assert agg.consume(ring, ["/a"]) == n
+    assert max(len(b) for b in batches) == CONSUME_BATCH
+    assert [i for b in batches for i in b] == list(range(n))
+    assert agg.rows == n and len(ring) == 0

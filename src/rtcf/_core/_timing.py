@@ -65,6 +65,12 @@ def local_ring(components: int, capacity: int = 1 << 12) -> Ring:
     return Ring.create(bytearray(Ring.nbytes(capacity, size)), capacity, size)
 
 
+# Rows the supervisor takes from the ring at a time (about 20 every 10 ms at 2 kHz):
+# each batch lives as numpy arrays and, for iteration_info, as Python lists for a
+# moment, and a heap grown for one large batch does not shrink again.
+CONSUME_BATCH = 512
+
+
 def ring_capacity(components: int, budget_bytes: int = 16 << 20) -> int:
     """Rows that fit a memory budget: 16 MiB is 8 s of a 5-component loop at 2 kHz...
 
@@ -129,6 +135,9 @@ class TimingAggregate:
             start, n = ring.pending()
             if n == 0:
                 break
+            # a bounded batch: after a stall, a backlog of many thousand rows in one go
+            # would leave the supervisor's heap that much larger for good
+            n = min(n, CONSUME_BATCH)
             flat = np.frombuffer(
                 ring.data, dtype=np.int64, count=n * stride, offset=start * ring.record_size
             )
