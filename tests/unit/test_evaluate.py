@@ -67,3 +67,44 @@ def test_the_command_says_what_is_wrong(tmp_path, capsys):
     with pytest.raises(SystemExit):
         main(["evaluate", "run.bag", "-5"])
     assert "not a positive frequency" in capsys.readouterr().err
+
+
+def _timing_mcap(path, topics):
+    """An MCAP file as rtcf launch --record writes it, with the timing rows of each topic."""
+    from rtcf._core._timing import COL_CALC, COL_ITERATION, COL_JITTER, COL_SCHEDULED
+    from rtcf._runtime._mcap import McapRecording
+
+    rec = McapRecording(str(path))
+    rec.begin([])
+    for topic, rows in topics.items():
+        rec.timing_topic = topic
+        table = np.zeros((len(rows), 6), dtype=np.int64)
+        for k, (it, scheduled, jitter, calc) in enumerate(rows):
+            table[k, [COL_ITERATION, COL_SCHEDULED, COL_JITTER, COL_CALC]] = (
+                it, scheduled, jitter, calc
+            )
+        rec.messages.setdefault(topic, 0)  # one runner per recording: a second by hand
+        rec.timing_rows(table, offset_ns=10**9)
+    if len(topics) > 1:
+        rec.timing_topic = None  # the metadata names none: the reader must choose
+    rec.finish({}, {})
+
+
+def test_an_mcap_recording_gives_its_timing_rows(tmp_path):
+    path = tmp_path / "run.mcap"
+    _timing_mcap(path, {"/r/iteration_info": [(0, 0, 1500, 20_000), (1, P, 2500, 21_000)]})
+    records = read_recording(str(path))
+    assert records.topic == "/r/iteration_info"
+    assert records.iteration.tolist() == [0, 1]
+    assert records.stamp_ns.tolist() == [10**9, 10**9 + P]
+    assert records.calc_ns.tolist() == [20_000, 21_000]
+    assert records.jitter_ns.tolist() == [1500, 2500]
+
+
+def test_an_mcap_with_two_runners_needs_a_topic(tmp_path):
+    path = tmp_path / "two.mcap"
+    _timing_mcap(path, {"/a/iteration_info": [(0, 0, 1, 2)], "/b/iteration_info": [(7, 0, 1, 2)]})
+    with pytest.raises(RtcfError, match=r"two\.mcap: several iteration_info topics "
+                       r"\(/a/iteration_info, /b/iteration_info\); pick one with --topic"):
+        read_recording(str(path))
+    assert read_recording(str(path), "/b/iteration_info").iteration.tolist() == [7]

@@ -56,43 +56,30 @@ def _read_mcap(path: str, topic: str | None) -> IterationRecords:
     """iteration_info from an MCAP file: rtcf's own recording (``rtcf launch --record``:
     the topic its metadata names) or rosbag2's (``ros2 bag record -s mcap
     /rt_runner/iteration_info``), std_msgs/msg/Float64MultiArray in both."""
-    try:
-        from mcap.reader import make_reader
-        from mcap_ros2.decoder import DecoderFactory
-    except ImportError:
+    from ._recording_tools import read_recording
+
+    rec = read_recording(
+        path, (lambda t: t == topic) if topic else (lambda t: t.endswith("/iteration_info"))
+    )
+    infos = sorted(rec.messages)
+    chosen = topic or rec.metadata.get("timing_topic") or (infos[0] if len(infos) == 1 else None)
+    if chosen is None:
         raise RtcfError(
-            f"{path}: reading MCAP needs the recording extra: pip install 'rtcf[record]'"
-        ) from None
-    columns: list[list[int]] = [[], [], [], []]
-    try:
-        with open(path, "rb") as f:
-            reader = make_reader(f, decoder_factories=[DecoderFactory()])
-            summary = reader.get_summary()
-            meta = {m.name: dict(m.metadata) for m in reader.iter_metadata()}.get("rtcf", {})
-            infos = sorted(
-                c.topic for c in (summary.channels.values() if summary else [])
-                if c.topic.endswith("/iteration_info")
+            f"{path}: " + (
+                f"several iteration_info topics ({', '.join(infos)}); pick one with --topic"
+                if infos else "no iteration_info topic in it; record one with rtcf launch "
+                "--record, or ros2 bag record -s mcap /rt_runner/iteration_info"
             )
-            chosen = topic or meta.get("timing_topic") or (infos[0] if len(infos) == 1 else None)
-            if chosen is None:
-                raise RtcfError(
-                    f"{path}: " + (
-                        f"several iteration_info topics ({', '.join(infos)}); pick one with "
-                        "--topic" if infos else "no iteration_info topic in it; record one "
-                        "with rtcf launch --record, or ros2 bag record -s mcap "
-                        "/rt_runner/iteration_info"
-                    )
-                )
-            f.seek(0)
-            reader = make_reader(f, decoder_factories=[DecoderFactory()])
-            for _, _, _, msg in reader.iter_decoded_messages(topics=[chosen]):
-                it, stamp, calc, jitter = list(msg.data)[:4]
-                columns[0].append(int(it))
-                columns[1].append(round(stamp * 1e9))
-                columns[2].append(round(calc * 1e9))
-                columns[3].append(round(jitter * 1e9))
-    except OSError as exc:
-        raise RtcfError(f"{path}: cannot read it: {exc.strerror}") from None
+        )
+    columns: list[list[int]] = [[], [], [], []]
+    if chosen in rec.messages:
+        decode = rec.decoder(chosen)
+        for message in rec.messages[chosen]:
+            it, stamp, calc, jitter = list(decode(message.data).data)[:4]
+            columns[0].append(int(it))
+            columns[1].append(round(stamp * 1e9))
+            columns[2].append(round(calc * 1e9))
+            columns[3].append(round(jitter * 1e9))
     it_ns, stamp_ns, calc_ns, jitter_ns = (np.array(c, dtype=np.int64) for c in columns)
     return IterationRecords(
         path, chosen, "std_msgs/msg/Float64MultiArray", stamp_ns, calc_ns, jitter_ns, it_ns
