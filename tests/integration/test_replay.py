@@ -89,7 +89,9 @@ def test_bad_replays_are_one_clear_line(tmp_path):
     not_mcap.write_text("hello")
     result = run_rtcf("replay", not_mcap)
     assert result.returncode == 1
-    assert result.stderr.startswith(f"rtcf: error: {not_mcap}: not a readable MCAP file")
+    assert result.stderr == (
+        f"rtcf: error: {not_mcap}: not an MCAP file (no MCAP magic at its start)\n"
+    )
     result = run_rtcf("replay", tmp_path / "missing.mcap")
     assert result.returncode == 1
     assert "cannot read it: No such file or directory" in result.stderr

@@ -59,6 +59,7 @@ class Recording:
     encodings: dict[str, str] = field(default_factory=dict)  # topic -> message encoding
     messages: dict[str, list[Message]] = field(default_factory=dict)
     metadata: dict[str, str] = field(default_factory=dict)  # the 'rtcf' record
+    attachments: dict[str, bytes] = field(default_factory=dict)  # launch file, settings, ...
     start_ns: int = 0  # the log time of the file's first message
     end_ns: int = 0  # and of its last
 
@@ -111,6 +112,7 @@ def read_recording(path: str, select: Callable[[str], bool] | None = None) -> Re
                 for m in reader.iter_metadata():
                     if m.name == "rtcf":
                         rec.metadata = dict(m.metadata)
+                rec.attachments = {a.name: bytes(a.data) for a in reader.iter_attachments()}
                 if summary.statistics is not None and summary.statistics.message_count:
                     start = summary.statistics.message_start_time
                     end = summary.statistics.message_end_time

@@ -28,8 +28,9 @@ from .._core._ports import InputPort
 from .._core._runner import Runner
 from .._launch._files import load_deployment
 from .._runtime._codec import codec_for
-from .._runtime._mcap import RECORD_HINT, McapRecording
+from .._runtime._mcap import McapRecording
 from .._runtime._recording import RecordingDrain, WorkerRecording, recorded_topics, segment_size
+from ._recording_tools import read_recording
 
 
 def add_parser(sub: Any, add_debug: Callable[[argparse.ArgumentParser], None]) -> None:
@@ -62,48 +63,28 @@ class _Recorded:
     """A recording's topics: per topic, its message type and its values by iteration."""
 
     def __init__(self, path: str) -> None:
-        try:
-            from mcap.reader import make_reader
-            from mcap_ros2.decoder import DecoderFactory
-        except ImportError:
-            raise ConfigurationError(f"{path}: the mcap packages are not installed; "
-                                     f"{RECORD_HINT}") from None
-        self.types: dict[str, str] = {}
-        self.schemas: dict[str, str] = {}  # message type -> its definition, as recorded
-        self.values: dict[str, dict[int, Any]] = {}
-        try:
-            with open(path, "rb") as f:
-                reader = make_reader(f, decoder_factories=[DecoderFactory()])
-                self.metadata = {
-                    m.name: dict(m.metadata) for m in reader.iter_metadata()
-                }.get("rtcf", {})
-                self.attachments = {a.name: bytes(a.data) for a in reader.iter_attachments()}
-                f.seek(0)
-                reader = make_reader(f)
-                factory = DecoderFactory()
-                decoders: dict[int, Any] = {}
-                for schema, channel, message in reader.iter_messages():
-                    name = schema.name if schema is not None else ""
-                    self.types[channel.topic] = name
-                    if schema is not None:
-                        self.schemas[name] = schema.data.decode()
-                    if channel.id not in decoders:  # CDR primitives; others stay bytes
-                        decoders[channel.id] = (
-                            factory.decoder_for(channel.message_encoding, schema)
-                            if name in _PRIMITIVE_TYPES else None
-                        )
-                    decode = decoders[channel.id]
-                    self.values.setdefault(channel.topic, {})[message.sequence] = (
-                        name, message.data, decode(message.data) if decode else None,
-                    )
-        except OSError as exc:
-            raise ConfigurationError(f"{path}: cannot read it: {exc.strerror}") from None
-        except Exception as exc:  # the mcap library's errors: not an MCAP, truncated
-            raise ConfigurationError(f"{path}: not a readable MCAP file ({exc})") from None
-        if not self.metadata:
+        rec = read_recording(path)
+        if not rec.metadata:
             raise ConfigurationError(
                 f"{path}: no 'rtcf' metadata: is it a recording of rtcf launch --record?"
             )
+        self.metadata = rec.metadata
+        self.attachments = rec.attachments
+        self.types: dict[str, str] = {}
+        self.schemas: dict[str, str] = {}  # message type -> its definition, as recorded
+        self.values: dict[str, dict[int, Any]] = {}
+        for topic, messages in rec.messages.items():
+            schema = rec.schemas.get(topic)
+            name = schema.name if schema is not None else ""
+            self.types[topic] = name
+            if schema is not None:
+                self.schemas[name] = schema.data.decode()
+            # CDR primitives decoded here; other messages stay bytes until a port asks
+            decode = rec.decoder(topic) if name in _PRIMITIVE_TYPES else None
+            self.values[topic] = {
+                m.iteration: (name, m.data, decode(m.data) if decode else None)
+                for m in messages
+            }
 
     @property
     def iterations(self) -> int:
