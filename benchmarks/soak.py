@@ -416,6 +416,22 @@ def memory_check(
     return out
 
 
+def heap_line(windows: list[dict[str, Any]], warmup_s: float) -> str:
+    """The supervisor's glibc heap (mallinfo2) from the first window after the warm-up
+    to the last: memory in use against free memory kept inside the heap, which tells
+    a leak (in use grows) from fragmentation (free grows, in use does not)."""
+    heap = [w["malloc_kb"] for w in windows if w.get("malloc_kb") and w["t_s"] >= warmup_s]
+    if len(heap) < 2:
+        return "supervisor heap (glibc mallinfo2): fewer than 2 windows after the warm-up"
+    a, b = heap[0], heap[-1]
+    return (
+        f"supervisor heap (glibc mallinfo2), first window after the warm-up → last: "
+        f"in use {kb(a['in_use'])} → {kb(b['in_use'])} kB ({b['in_use'] - a['in_use']:+,d}), "
+        f"free inside the heap {kb(a['free'])} → {kb(b['free'])} kB "
+        f"({b['free'] - a['free']:+,d})"
+    )
+
+
 def log_check(written: int, dropped: int, logs: LogCounter) -> dict[str, Any]:
     # records the supervisor never delivered: skipped numbers, and any after the last
     unseen = logs.missing + written - logs.last
@@ -991,6 +1007,7 @@ def report(data: dict[str, Any], quick: bool, *, write: bool = True) -> int:
         + " of a core"
     )
     mem_table = memory_table(data["memory"]["check"], cond["memory_warmup_s"])
+    mem_table += "\n\n" + heap_line(data["windows"], cond["memory_warmup_s"])
     acc_table = accounting_table(data["logs"], data["messages"], data["overruns"])
     jit_table = jitter_table(data["run"], data["windows"], cond["window_s"])
     print(mem_table)
