@@ -124,6 +124,16 @@ def test_a_real_time_recording_counts_what_it_could_not_keep(tmp_path):
     kept = len(sequences.get("/cascade/position", []))
     assert kept + dropped.get("/cascade/position", 0) == 1000
     assert json.loads(meta["rtcf"]["messages"])["/cascade/position"] == kept
+    # the timing rows and the values carry one ROS time per iteration, to the
+    # nanosecond: the loop stamps with the offset the supervisor stamps the rows with
+    stamps = {}
+    with open(path, "rb") as f:
+        for _, channel, message in make_reader(f).iter_messages():
+            stamps.setdefault(channel.topic, {})[message.sequence] = message.log_time
+    rows, values = stamps["/rt_runner/iteration_info"], stamps["/cascade/position"]
+    both = sorted(set(rows) & set(values))
+    assert len(both) > 900
+    assert [values[i] - rows[i] for i in both] == [0] * len(both)
 
 
 def test_bad_recording_options_are_one_clear_line(tmp_path):

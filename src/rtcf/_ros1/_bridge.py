@@ -52,7 +52,6 @@ wins where both set a name, as with roslaunch.
 from __future__ import annotations
 
 import functools
-import importlib
 import json
 import logging
 import socket
@@ -65,6 +64,8 @@ from typing import TYPE_CHECKING, Any
 
 from .._core._errors import RtcfError
 from .._core._log import LogRecord
+from .._core._message_types import STD_MESSAGES, std_type_name
+from .._core._message_types import message_class as core_message_class
 from .._core._params import ParameterStore
 from .._core._rings import Mailbox, Ring
 from .._core._settings import RunnerSettings
@@ -84,13 +85,6 @@ ROSOUT_QUEUE_SIZE = 100  # what rospy uses for its own /rosout publisher
 DRAIN_TIMEOUT_S = 0.05  # how often the publishing thread looks whether to end
 CONNECT_TIMEOUT_S = 1.0  # how long open() waits for peers the master already knows
 
-_STD = {
-    "float": ("std_msgs.msg", "Float64"),
-    "int": ("std_msgs.msg", "Int64"),
-    "bool": ("std_msgs.msg", "Bool"),
-    "str": ("std_msgs.msg", "String"),
-    "float_array": ("std_msgs.msg", "Float64MultiArray"),
-}
 _FIXED_SIZE = {"float": 8, "int": 8, "bool": 1}
 _U32 = struct.Struct("<I")
 _EMPTY_LAYOUT = b"\x00" * 8  # MultiArrayLayout: no dims, data_offset 0
@@ -112,18 +106,13 @@ def _import_rospy() -> Any:
 
 def message_class(port: MappedPort) -> type:
     """The ROS 1 (genpy) message class a mapped port is published or subscribed as."""
-    if port.kind in _STD:
-        module, name = _STD[port.kind]
-    else:
-        package, _, name = port.type_name.partition("/")
-        module = f"{package}.msg"
+    name = std_type_name(port.kind, ros2=False) if port.kind in STD_MESSAGES else port.type_name
     try:
-        cls: type = getattr(importlib.import_module(module), name)
-        return cls
-    except (ImportError, AttributeError) as exc:
+        return core_message_class(name)
+    except LookupError as exc:
         raise RtcfError(
-            f"topic {port.topic}: message type {module}.{name} is not available ({exc}); "
-            "install its package (e.g. apt-get install python3-std-msgs)"
+            f"topic {port.topic}: {exc}; install its package "
+            "(e.g. apt-get install python3-std-msgs)"
         ) from None
 
 

@@ -22,7 +22,6 @@ so that 2 kHz of it costs the supervisor little.
 
 from __future__ import annotations
 
-import importlib
 import json
 import struct
 import threading
@@ -33,6 +32,8 @@ from typing import TYPE_CHECKING, Any
 from .._core._errors import RtcfError
 from .._core._lifecycle import TransitionOutcome
 from .._core._log import LogLevel, LogRecord
+from .._core._message_types import STD_MESSAGES, std_type_name
+from .._core._message_types import message_class as core_message_class
 from .._core._rings import Mailbox, Ring
 from .._core._settings import RunnerSettings
 from .._core._timing import COL_CALC, COL_ITERATION, COL_JITTER, COL_SCHEDULED, TimingAggregate
@@ -47,13 +48,6 @@ if TYPE_CHECKING:
 ITERATION_INFO_LABELS = ("iteration", "stamp", "calc_duration", "jitter")
 SPIN_TIMEOUT_S = 0.05  # how often the executor thread looks whether to end
 
-_STD = {
-    "float": ("std_msgs.msg", "Float64"),
-    "int": ("std_msgs.msg", "Int64"),
-    "bool": ("std_msgs.msg", "Bool"),
-    "str": ("std_msgs.msg", "String"),
-    "float_array": ("std_msgs.msg", "Float64MultiArray"),
-}
 
 
 def _import_rclpy() -> Any:
@@ -69,18 +63,12 @@ def _import_rclpy() -> Any:
 
 def message_class(port: MappedPort) -> type:
     """The ROS 2 message class a mapped port is published or subscribed as."""
-    if port.kind in _STD:
-        module, name = _STD[port.kind]
-    else:
-        package, _, name = port.type_name.split("/")
-        module = f"{package}.msg"
+    name = std_type_name(port.kind, ros2=True) if port.kind in STD_MESSAGES else port.type_name
     try:
-        cls: type = getattr(importlib.import_module(module), name)
-        return cls
-    except (ImportError, AttributeError) as exc:
+        return core_message_class(name)
+    except LookupError as exc:
         raise RtcfError(
-            f"topic {port.topic}: message type {module}.{name} is not available ({exc}); "
-            "install its package (e.g. pip install ros-jazzy-std-msgs)"
+            f"topic {port.topic}: {exc}; install its package (e.g. pip install ros-jazzy-std-msgs)"
         ) from None
 
 

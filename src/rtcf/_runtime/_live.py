@@ -17,7 +17,7 @@ from typing import Any
 
 from .._core._errors import ConfigurationError
 from ._codec import Codec
-from ._mcap import _codec_of
+from ._mcap import codec_of
 from ._recording import Record, RecordedTopic
 
 LIVE_HINT = "install the live-view extra: pip install 'rtcf[live]'"
@@ -86,7 +86,7 @@ class FoxgloveLive:
                 channel = fg.Channel(t.topic, schema=schema, message_encoding="cdr")
             else:
                 continue  # ROS 1 messages: not served (the recording says why)
-            self._channels[t.topic] = (channel, _codec_of(t), t.kind)
+            self._channels[t.topic] = (channel, codec_of(t), t.kind)
 
     def write(self, record: Record) -> None:
         entry = self._channels.get(record.topic)

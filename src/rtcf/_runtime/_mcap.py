@@ -20,6 +20,7 @@ from collections.abc import Callable
 from typing import Any
 
 from .._core._errors import ConfigurationError
+from .._core._message_types import message_class, std_type_name
 from .._core._timing import COL_CALC, COL_ITERATION, COL_JITTER, COL_SCHEDULED
 from ._codec import Codec, codec_for
 from ._recording import Record, RecordedTopic
@@ -38,12 +39,16 @@ uint32 stride
 """
 
 # a port's codec kind -> the ROS 2 message it is recorded as, and its definition
+_DEFINITIONS = {
+    "float": "float64 data\n",
+    "int": "int64 data\n",
+    "bool": "bool data\n",
+    "str": "string data\n",
+    "float_array": _MULTI_ARRAY,
+}
+# a primitive kind's schema: its std_msgs type and that type's definition
 PRIMITIVES: dict[str, tuple[str, str]] = {
-    "float": ("std_msgs/msg/Float64", "float64 data\n"),
-    "int": ("std_msgs/msg/Int64", "int64 data\n"),
-    "bool": ("std_msgs/msg/Bool", "bool data\n"),
-    "str": ("std_msgs/msg/String", "string data\n"),
-    "float_array": ("std_msgs/msg/Float64MultiArray", _MULTI_ARRAY),
+    kind: (std_type_name(kind), text) for kind, text in _DEFINITIONS.items()
 }
 
 RECORD_HINT = "install the recording extra: pip install 'rtcf[record]'"
@@ -127,7 +132,7 @@ class McapRecording:
             else:  # genpy's serialization (no padding): written as it is
                 schema_id = self._writer.register_raw_schema(name, "ros1msg", text)
                 schema = self._writer.register_raw_channel(t.topic, "ros1", schema_id)
-            codec = _codec_of(t)
+            codec = codec_of(t)
             self._channels[t.topic] = (schema, codec, t.kind)
             self.messages.setdefault(t.topic, 0)
 
@@ -142,7 +147,7 @@ class McapRecording:
                 )
             return t.type_name, self._definition(t.type_name)
         if t.kind == "ros1":  # genpy keeps the full definition with the class
-            return t.type_name, str(_ros1_class(t.type_name)._full_text)  # type: ignore[attr-defined]
+            return t.type_name, str(_message_class(t)._full_text)  # type: ignore[attr-defined]
         raise ConfigurationError(f"{t.topic}: values of kind {t.kind} cannot be recorded")
 
     def write(self, record: Record) -> None:
@@ -232,33 +237,22 @@ class McapRecording:
         return line
 
 
-def _codec_of(t: RecordedTopic) -> Codec:
+def codec_of(t: RecordedTopic) -> Codec:
+    """How a recorded topic's values are encoded in the rings (and in the file)."""
     cls: type = {"float": float, "int": int, "bool": bool, "str": str}.get(t.kind, float)
     if t.kind == "float_array":
         import numpy as np
 
         cls = np.ndarray
-    elif t.kind == "ros2":
-        cls = _ros2_class(t.type_name)
-    elif t.kind == "ros1":
-        cls = _ros1_class(t.type_name)
+    elif t.kind in ("ros2", "ros1"):
+        cls = _message_class(t)
     codec = codec_for(cls)
     assert codec is not None
     return codec
 
 
-def _ros2_class(type_name: str) -> type:
-    import importlib
-
-    package, _, name = type_name.split("/")
-    cls: type = getattr(importlib.import_module(f"{package}.msg"), name)
-    return cls
-
-
-
-def _ros1_class(type_name: str) -> type:
-    import importlib
-
-    package, _, name = type_name.partition("/")
-    cls: type = getattr(importlib.import_module(f"{package}.msg"), name)
-    return cls
+def _message_class(t: RecordedTopic) -> type:
+    try:
+        return message_class(t.type_name)
+    except LookupError as exc:
+        raise ConfigurationError(f"--record: topic {t.topic}: {exc}") from None

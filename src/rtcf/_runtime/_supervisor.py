@@ -676,15 +676,19 @@ class WorkerRunner:
         aggregate = TimingAggregate()
         if self.bridge is not None and self.settings.iteration_info:
             aggregate.on_rows = self.bridge.iteration_info
+        # wall minus monotonic, once per run, for the loop and the recording alike: every
+        # recorded channel, the timing rows too, is stamped with the same offset
+        ros_offset = self._ros_offset()
         if record is not None and hasattr(record, "timing_rows"):
-            aggregate.on_rows = _with_timing_rows(aggregate.on_rows, record, self._ros_offset())
+            aggregate.on_rows = _with_timing_rows(aggregate.on_rows, record, ros_offset)
         self._timing = (ring, schedule, aggregate)
         self._events.pop("started", None)
         try:
             if self.bridge is not None and ports:
                 self.bridge.open(ports, channels)
             done = self.call(
-                "run", iterations, seg, trace, port_seg, ports, rec_seg, recorded or None
+                "run", iterations, seg, trace, port_seg, ports, rec_seg, recorded or None,
+                None if self.simulated or self.settings.use_sim_time else ros_offset,
             )
         finally:
             self._timing = None

@@ -325,8 +325,12 @@ class Worker:
         ports: list[MappedPort] | None = None,
         rec_seg: Segment | None = None,
         recorded: list[RecordedTopic] | None = None,
+        ros_offset_ns: int | None = None,
     ) -> dict[str, Any]:
         runner = self._runner()
+        if ros_offset_ns is not None and hasattr(runner.clock, "pinned_ros_offset_ns"):
+            # the supervisor's, with which it stamps the recording's timing rows
+            runner.clock.pinned_ros_offset_ns = ros_offset_ns
         ring = Ring.open(seg.buf)
         trace = Trace(runner.components, runner.state) if trace_path else None
         bridge = None
