@@ -75,28 +75,10 @@ def _emit(event: str, **fields: Any) -> None:
 
 
 def malloc_kb() -> dict[str, int]:
-    """glibc's heap of this process (mallinfo2, all arenas): what is in use and what is
-    free inside it. A resident size that grows while ``in_use`` stays flat is the
-    heap's fragmentation, not a leak. Empty where glibc lacks mallinfo2 (before 2.33)."""
-    import ctypes
+    """glibc's heap of this process, and the blocks CPython's own allocator holds."""
+    from rtcf._runtime._heap import malloc_kb as heap
 
-    class Mallinfo2(ctypes.Structure):
-        _fields_ = [(name, ctypes.c_size_t) for name in (
-            "arena", "ordblks", "smblks", "hblks", "hblkhd", "usmblks", "fsmblks", "uordblks",
-            "fordblks", "keepcost",
-        )]
-
-    try:
-        fn = ctypes.CDLL(None).mallinfo2
-    except AttributeError:
-        return {}
-    fn.restype = Mallinfo2
-    info = fn()
-    return {
-        "in_use": (info.uordblks + info.hblkhd) // 1024,
-        "free": info.fordblks // 1024,
-        "arena": info.arena // 1024,
-    }
+    return {**heap(), "py_blocks": sys.getallocatedblocks()}
 
 
 class Windows:

@@ -429,6 +429,12 @@ def heap_line(windows: list[dict[str, Any]], warmup_s: float) -> str:
         f"in use {kb(a['in_use'])} → {kb(b['in_use'])} kB ({b['in_use'] - a['in_use']:+,d}), "
         f"free inside the heap {kb(a['free'])} → {kb(b['free'])} kB "
         f"({b['free'] - a['free']:+,d})"
+        + (
+            f"; CPython's blocks {kb(a['py_blocks'])} → {kb(b['py_blocks'])} "
+            f"({b['py_blocks'] - a['py_blocks']:+,d})"
+            if "py_blocks" in a and "py_blocks" in b
+            else ""
+        )
     )
 
 

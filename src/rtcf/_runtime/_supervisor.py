@@ -54,6 +54,7 @@ from .._core._tunables import (
     encode_update,
 )
 from ._doorbell import Doorbell, RungMailbox
+from ._heap import fill_numpy_cache
 from ._port_channels import OUTPUT_RING_RECORDS, MappedPort, segment_size
 from ._recording import RecordedTopic, RecordingDrain, RecordSink
 from ._recording import segment_size as recording_segment_size
@@ -155,6 +156,7 @@ class WorkerRunner:
     # -- process ---------------------------------------------------------------
     def start(self) -> WorkerRunner:
         self._owner = threading.get_ident()
+        fill_numpy_cache()  # its growth would read as a leak in a long run
         if self.bridge is not None:
             self.bridge.configure(self.settings, self)
         control = self._segment(CLOCK_MAILBOX_OFFSET + Mailbox.nbytes(8), "rtcf-control")
