@@ -156,21 +156,24 @@ def test_a_killed_launcher_gets_its_component_unloaded(ros_node):
         end(r)
 
 
-def test_launchers_of_a_killed_runner_exit_with_a_clear_message(ros_node):
+def launcher_of_a_killed_runner(name):
+    """A Mimo launcher loaded into /rt_runner, whose runner then died without a word
+    (SIGKILL). The autouse fixture ends what is left."""
     r = runner("rt_runner")
-    a = None
-    try:
-        wait_for(r, "ready")
-        a = launcher("/rt_runner", "orphan", "Mimo")
-        wait_for(a, "loaded into")
-        r.kill()
-        r.communicate()
-        err = wait_for(a, "is gone", timeout=60)  # after the DDS lease of the dead runner
-        assert "the runner /rt_runner is gone" in err
-        a.communicate(timeout=20)
-        assert a.returncode == 1
-    finally:
-        end(r, *(p for p in (a,) if p is not None))
+    wait_for(r, "ready")
+    a = launcher("/rt_runner", name, "Mimo")
+    wait_for(a, "loaded into")
+    r.kill()
+    r.communicate()
+    return a
+
+
+def test_launchers_of_a_killed_runner_exit_with_a_clear_message(ros_node):
+    a = launcher_of_a_killed_runner("orphan")
+    err = wait_for(a, "is gone", timeout=60)  # after the DDS lease of the dead runner
+    assert "the runner /rt_runner is gone" in err
+    a.communicate(timeout=20)
+    assert a.returncode == 1
 
 
 def test_two_runners_share_one_graph(ros_node):
@@ -226,20 +229,11 @@ def test_a_launchers_node_tunes_its_component_in_the_runner(ros_node):
 
 
 def test_a_launcher_stops_waiting_for_an_unload_once_its_runner_is_gone(ros_node):
-    r = runner("rt_runner")
-    a = None
-    try:
-        wait_for(r, "ready")
-        a = launcher("/rt_runner", "stranded", "Mimo")
-        wait_for(a, "loaded into")
-        # the runner dies without a word; the launcher, stopped at once, still finds
-        # its unload service (DDS keeps it until the lease ends) and asks: no answer
-        r.kill()
-        r.communicate()
-        a.send_signal(signal.SIGINT)
-        _, err = a.communicate(timeout=90)
-        # it gave up when the runner left the graph, not after the answer's 60 s
-        assert "warning: unload refused: the runner /rt_runner is gone" in err, err
-        assert a.returncode == 0
-    finally:
-        end(r, *(p for p in (a,) if p is not None))
+    # stopped at once, the launcher still finds its runner's unload service (DDS keeps
+    # it until the lease ends) and asks: no answer will come
+    a = launcher_of_a_killed_runner("stranded")
+    a.send_signal(signal.SIGINT)
+    _, err = a.communicate(timeout=90)
+    # it gave up when the runner left the graph, not after the answer's 60 s
+    assert "warning: unload refused: the runner /rt_runner is gone" in err, err
+    assert a.returncode == 0

@@ -44,3 +44,20 @@ def test_on_the_system_clock_the_stamp_is_wall_time_on_the_iterations_grid() -> 
     # on the loop's grid: the stamps step exactly as the iterations' times do
     assert [b - a for a, b in itertools.pairwise(stamps)] == [1_000_000] * 4
     assert [s - t for t, s in seen] == [stamps[0] - seen[0][0]] * 5
+
+
+def test_a_given_ros_offset_is_the_one_the_stamps_use() -> None:
+    # a supervisor that stamps the run's records itself hands its offset to the loop
+    runner = rtcf.Runner(rtcf.RunnerSettings(frequency=1000.0))
+    runner.load(rtcf.ComponentSpec("s", Stamper))
+    offset = 1_700_000_000_123_456_789
+    before = time.monotonic_ns()
+    runner.run(3, ros_offset_ns=offset)
+    after = time.monotonic_ns()
+    runner.run(2)  # the next run reads the clock's own again
+    wall = time.time_ns()
+    seen = runner.components["/s"].seen
+    runner.shutdown()
+    given = [stamp - offset for _, stamp in seen[:3]]  # the scheduled starts
+    assert all(before - 10_000_000 <= t <= after for t in given), given
+    assert all(abs(stamp - wall) < 50_000_000 for _, stamp in seen[3:])

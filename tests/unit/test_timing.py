@@ -3,14 +3,23 @@
 from __future__ import annotations
 
 import math
+import random
+import struct
 from array import array
 
+import numpy as np
 import pytest
 
 from rtcf._core._rings import Ring
 from rtcf._core._timing import (
+    COL_CALC,
+    COL_ITERATION,
+    COL_JITTER,
+    COL_SCHEDULED,
     FIXED_COLUMNS,
+    ITERATION_INFO_BYTES,
     TimingAggregate,
+    iteration_info_doubles,
     local_ring,
     quantile,
     ring_capacity,
@@ -173,3 +182,30 @@ def test_aggregate_takes_a_backlog_in_bounded_batches() -> None:
     assert max(len(b) for b in batches) == CONSUME_BATCH
     assert [i for b in batches for i in b] == list(range(n))
     assert agg.rows == n and len(ring) == 0
+
+
+def test_iteration_info_doubles_are_what_float_arithmetic_on_each_row_gives() -> None:
+    rnd = random.Random(7)
+    offset = 1_763_900_000_123_456_789 - 31_415_926_535_897  # wall minus monotonic, ns
+    rows = np.zeros((300, FIXED_COLUMNS + 2), dtype=np.int64)
+    for k, row in enumerate(rows):
+        row[COL_ITERATION] = 10_000_000 + k
+        row[COL_SCHEDULED] = 31_415_926_535_897 + 500_000 * k
+        row[COL_JITTER] = rnd.randint(-2_000, 70_000_000)  # a clock may report early
+        row[COL_CALC] = rnd.randint(0, 5_000_000)
+    data = iteration_info_doubles(rows, offset)
+    assert len(data) == ITERATION_INFO_BYTES * len(rows)
+    expected = b"".join(
+        struct.pack(
+            "<4d",
+            float(it),
+            (scheduled + offset) * 1e-9,
+            calc * 1e-9,
+            jitter * 1e-9,
+        )
+        for it, scheduled, calc, jitter in rows[
+            :, [COL_ITERATION, COL_SCHEDULED, COL_CALC, COL_JITTER]
+        ].tolist()
+    )
+    assert data == expected  # to the bit
+    assert iteration_info_doubles(rows[:0], offset) == b""

@@ -76,9 +76,6 @@ class MonotonicClock:
         self._ts = _Timespec()
         self._ts_ptr = ctypes.pointer(self._ts)
         self.now_ns = time.monotonic_ns  # type: ignore[method-assign]
-        # set by whoever stamps this run's records elsewhere (the supervisor), so that
-        # the loop's ROS stamps and theirs agree to the nanosecond
-        self.pinned_ros_offset_ns: int | None = None
 
     @property
     def uses_clock_nanosleep(self) -> bool:
@@ -89,8 +86,6 @@ class MonotonicClock:
 
     def ros_time_offset_ns(self) -> int:
         """What to add to this clock's time for ROS (wall) time: read once per run."""
-        if self.pinned_ros_offset_ns is not None:
-            return self.pinned_ros_offset_ns
         return time.time_ns() - time.monotonic_ns()
 
     def sleep_until_ns(self, deadline_ns: int) -> None:

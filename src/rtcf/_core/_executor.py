@@ -157,6 +157,9 @@ class Executor:
         self.idle = idle
         # run first in every iteration: copy the newest middleware messages into inputs
         self.feeders = tuple(feeders)
+        # ROS time minus this clock's, for the stamps; None: the clock's own, read at
+        # the start of each run
+        self.ros_offset_ns: int | None = None
         self.origin_ns: int | None = None  # time of the very first scheduled start
         # where the next iteration is due; a later run() resumes on this grid
         self.next_deadline_ns: int | None = None
@@ -226,8 +229,10 @@ class Executor:
         streak = in_window = window_end = 0
         # ROS time of an iteration = its scheduled start + this (0 for simulated and
         # /clock time, whose clocks already count in it)
-        offset_of = getattr(clock, "ros_time_offset_ns", None)
-        ros_offset = offset_of() if offset_of is not None else 0
+        ros_offset = self.ros_offset_ns
+        if ros_offset is None:
+            offset_of = getattr(clock, "ros_time_offset_ns", None)
+            ros_offset = offset_of() if offset_of is not None else 0
 
         deadline = now()
         if self.next_deadline_ns is not None and self.next_deadline_ns > deadline:

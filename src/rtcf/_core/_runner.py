@@ -683,6 +683,7 @@ class Runner:
         drain_logs_every_iteration: bool = True,
         timing_ring: Ring | None = None,
         feeders: Sequence[Callable[[], object]] = (),
+        ros_offset_ns: int | None = None,
     ) -> RunResult:
         """Run the loop for ``iterations`` iterations, or until :meth:`request_stop`.
 
@@ -695,6 +696,11 @@ class Runner:
         on. A watchdog that fires, or a stop word set to ABORT (a signal), also runs
         the safe stops; the first raises LoopError. The components stay loaded (call
         :meth:`shutdown`).
+
+        ``ros_offset_ns`` is what to add to the clock's time for the ROS stamps of the
+        iterations (the default: the clock's own offset, read as the run starts); a
+        supervisor that stamps the run's records itself passes its own, so the two
+        agree to the nanosecond.
         """
         reason = self.not_ready_reason()
         if reason is not None:
@@ -710,6 +716,7 @@ class Runner:
         writer = TimingWriter(self._schedule, timing_ring)
         executor.timing = writer
         executor.feeders = tuple(feeders)
+        executor.ros_offset_ns = ros_offset_ns
         executor.idle = self._idle_hook(
             on_iteration, drain_logs_every_iteration, aggregate, timing_ring
         )
@@ -738,6 +745,7 @@ class Runner:
             executor.idle = None
             executor.timing = None
             executor.feeders = ()
+            executor.ros_offset_ns = None
             writer.release()
         self.drain_logs()
         stopped_by = "count" if iterations is not None and ran >= iterations else "stop"

@@ -32,6 +32,11 @@ QUANTILES = (("p50", 0.5), ("p90", 0.9), ("p99", 0.99), ("p999", 0.999))
 COL_ITERATION, COL_SCHEDULED, COL_JITTER, COL_CALC, COL_OVERRAN, COL_PHASE = range(6)
 FIXED_COLUMNS = 6
 
+# iteration_info as std_msgs/Float64MultiArray (ROS 2, and ROS 1 without rtcf_msgs):
+# these four doubles per iteration, in seconds but for the iteration number
+ITERATION_INFO_LABELS = ("iteration", "stamp", "calc_duration", "jitter")
+ITERATION_INFO_BYTES = 32
+
 
 def quantile(sorted_values: Sequence[int] | Sequence[float], q: float) -> float:
     """Nearest-rank quantile of already sorted values (the smallest v with F(v) >= q)."""
@@ -81,6 +86,26 @@ def ring_capacity(components: int, budget_bytes: int = 16 << 20) -> int:
     while capacity * 2 <= rows and capacity < 1 << 16:
         capacity *= 2
     return capacity
+
+
+def iteration_info_doubles(rows: Any, ros_offset_ns: int) -> bytes:
+    """The iteration_info data of timing ``rows`` (an int64 array, one row each):
+    [iteration, stamp (ROS time of the scheduled start), calc_duration, jitter] as
+    little-endian doubles, :data:`ITERATION_INFO_BYTES` a row, rows one after another.
+
+    One array for the batch, where a list per row would make a backlog (after a
+    stall, up to a batch of 512 rows) a burst of Python objects that leaves
+    CPython's heap larger for good. The same doubles as Python's float arithmetic on
+    each row would give (the int64 sum is exact, its conversion rounds the same way).
+    """
+    import numpy as np
+
+    out = np.empty((len(rows), 4), dtype="<f8")
+    out[:, 0] = rows[:, COL_ITERATION]
+    out[:, 1] = (rows[:, COL_SCHEDULED] + ros_offset_ns) * 1e-9
+    out[:, 2] = rows[:, COL_CALC] * 1e-9
+    out[:, 3] = rows[:, COL_JITTER] * 1e-9
+    return out.tobytes()
 
 
 class TimingWriter:

@@ -69,7 +69,15 @@ from .._core._message_types import message_class as core_message_class
 from .._core._params import ParameterStore
 from .._core._rings import Mailbox, Ring
 from .._core._settings import RunnerSettings
-from .._core._timing import COL_CALC, COL_ITERATION, COL_JITTER, COL_SCHEDULED, TimingAggregate
+from .._core._timing import (
+    COL_CALC,
+    COL_JITTER,
+    COL_SCHEDULED,
+    ITERATION_INFO_BYTES,
+    ITERATION_INFO_LABELS,
+    TimingAggregate,
+    iteration_info_doubles,
+)
 from .._runtime._doorbell import Doorbell, RungMailbox
 from .._runtime._health import health
 from .._runtime._port_channels import MappedPort, read_record
@@ -79,7 +87,6 @@ if TYPE_CHECKING:
     from .._runtime._supervisor import LiveStatus, WorkerRunner
     from ._face import ComponentFace
 
-ITERATION_INFO_LABELS = ("iteration", "stamp", "calc_duration", "jitter")
 QUEUE_SIZE = 10  # until configure() gives the runner's ros_qos_depth
 ROSOUT_QUEUE_SIZE = 100  # what rospy uses for its own /rosout publisher
 DRAIN_TIMEOUT_S = 0.05  # how often the publishing thread looks whether to end
@@ -334,14 +341,9 @@ class Ros1Bridge:
                 raw._buff = pack_typed(sec, nsec, max(row[COL_CALC], 0))
                 pub.publish(raw)
             return
-        pack = _FOUR_DOUBLES.pack
-        for row in rows.tolist():
-            raw._buff = prefix + pack(
-                float(row[COL_ITERATION]),
-                (row[COL_SCHEDULED] + offset) * 1e-9,
-                row[COL_CALC] * 1e-9,
-                row[COL_JITTER] * 1e-9,
-            )
+        data = iteration_info_doubles(rows, offset)
+        for at in range(0, len(data), ITERATION_INFO_BYTES):
+            raw._buff = prefix + data[at : at + ITERATION_INFO_BYTES]
             pub.publish(raw)
 
     def component_loaded(self, info: dict[str, Any], runner: WorkerRunner) -> None:

@@ -36,7 +36,12 @@ from .._core._message_types import STD_MESSAGES, std_type_name
 from .._core._message_types import message_class as core_message_class
 from .._core._rings import Mailbox, Ring
 from .._core._settings import RunnerSettings
-from .._core._timing import COL_CALC, COL_ITERATION, COL_JITTER, COL_SCHEDULED, TimingAggregate
+from .._core._timing import (
+    ITERATION_INFO_BYTES,
+    ITERATION_INFO_LABELS,
+    TimingAggregate,
+    iteration_info_doubles,
+)
 from .._runtime._doorbell import Doorbell, RungMailbox
 from .._runtime._health import health
 from .._runtime._port_channels import MappedPort, read_record
@@ -45,7 +50,6 @@ from ._face import ComponentFace, read_only, ros_logger_name, ros_value
 if TYPE_CHECKING:
     from .._runtime._supervisor import LiveStatus, WorkerRunner
 
-ITERATION_INFO_LABELS = ("iteration", "stamp", "calc_duration", "jitter")
 SPIN_TIMEOUT_S = 0.05  # how often the executor thread looks whether to end
 
 
@@ -204,16 +208,10 @@ class Ros2Bridge:
         pub = self._info_pub
         if pub is None:
             return
-        offset = self._info_offset
         prefix = self._info_prefix
-        pack = _FOUR_DOUBLES.pack
-        for row in rows.tolist():
-            pub.publish(prefix + pack(
-                float(row[COL_ITERATION]),
-                (row[COL_SCHEDULED] + offset) * 1e-9,
-                row[COL_CALC] * 1e-9,
-                row[COL_JITTER] * 1e-9,
-            ))
+        data = iteration_info_doubles(rows, self._info_offset)
+        for at in range(0, len(data), ITERATION_INFO_BYTES):
+            pub.publish(prefix + data[at : at + ITERATION_INFO_BYTES])
 
     # -- per run -------------------------------------------------------------------
     def open(self, ports: list[MappedPort], channels: dict[str, Ring | Mailbox]) -> None:
@@ -401,7 +399,7 @@ class Ros2Bridge:
             self._rclpy.shutdown(context=self.context)
 
 
-_FOUR_DOUBLES = struct.Struct("<4d")
+_FOUR_DOUBLES = struct.Struct("<4d")  # the template's data, cut off for the prefix
 
 
 def _iteration_info_prefix() -> bytes:

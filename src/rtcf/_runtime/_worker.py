@@ -328,9 +328,6 @@ class Worker:
         ros_offset_ns: int | None = None,
     ) -> dict[str, Any]:
         runner = self._runner()
-        if ros_offset_ns is not None and hasattr(runner.clock, "pinned_ros_offset_ns"):
-            # the supervisor's, with which it stamps the recording's timing rows
-            runner.clock.pinned_ros_offset_ns = ros_offset_ns
         ring = Ring.open(seg.buf)
         trace = Trace(runner.components, runner.state) if trace_path else None
         bridge = None
@@ -366,6 +363,8 @@ class Worker:
                     timing_ring=ring,
                     on_iteration=_after_iteration(trace, bridge),
                     feeders=feeders,
+                    # the supervisor's, with which it stamps the recording's timing rows
+                    ros_offset_ns=ros_offset_ns,
                 )
             realtime = self.realtime.to_dict()
         finally:
