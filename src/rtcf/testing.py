@@ -190,6 +190,7 @@ def _run(
         recorder: list[_Recorder] = []
         state = runner.state
         schedule = runner.schedule
+        # the columns of components (not those of a lane's handovers)
         ran: dict[str, list[int]] = {name: [] for name in schedule}
         trace.ran = ran
         ran_columns = list(enumerate(ran.values(), start=FIXED_COLUMNS))
@@ -197,7 +198,7 @@ def _run(
 
         def record() -> None:  # after each iteration, outside its measured time
             if not recorder:  # created once the runner has wired the slots
-                recorder.append(_Recorder(components, state))
+                recorder.append(_Recorder(components, state, runner.visible_slots()))
             recorder[0].sample()
             while (row := timing.pop()) is not None:
                 words = memoryview(row).cast("q")
@@ -213,6 +214,7 @@ def _run(
         errors = runner.shutdown()
     if errors:
         raise errors[0]
+    trace.ran = {n: r for n, r in trace.ran.items() if not n.startswith("@")}  # not handovers
     topics = sorted({p.topic for c in components.values() for p in c.outputs.values()})
     trace.outputs = {topic: [] for topic in topics}
     if recorder:

@@ -94,19 +94,31 @@ def compile_plans(
     updates: Sequence[Callable[[], object]],
     active: Sequence[bool],
     rates: Sequence[tuple[int, int]] | None = None,
+    always: Sequence[bool] | None = None,
 ) -> tuple[Plan, ...]:
     """One plan per phase of the hyperperiod: iteration ``i`` runs plan ``i % len``.
 
     ``rates[k]`` is ``(every, phase)``: update ``k`` runs in iterations where
     ``(i - phase) % every == 0`` (every iteration when there are no rates).
+    ``always[k]`` makes step ``k`` run in every iteration whatever its active flag and
+    rate: a lane's handover of a value to another lane, which must happen in every
+    iteration even when the component it follows is skipped.
     """
+    if always is not None:
+        if len(always) != len(updates):
+            raise ValueError(f"{len(always)} always flags for a schedule of {len(updates)}")
+        active = [a or w for a, w in zip(active, always, strict=True)]
     if rates is None or all(every == 1 for every, _ in rates):
         return (compile_plan(updates, active),)
     if len(rates) != len(updates):
         raise ValueError(f"{len(rates)} rates for a schedule of {len(updates)}")
+    pinned = always or [False] * len(updates)
     tests = [lambda p, e=every, f=phase: (p - f) % e == 0 for every, phase in rates]
     return tuple(
-        compile_plan(updates, [a and runs(p) for a, runs in zip(active, tests, strict=True)])
+        compile_plan(
+            updates,
+            [a and (w or runs(p)) for a, w, runs in zip(active, pinned, tests, strict=True)],
+        )
         for p in range(hyperperiod(rates))
     )
 
@@ -149,6 +161,14 @@ class Executor:
         self.plans: tuple[Plan, ...] = ()
         self.hyperperiod = 1  # len(plans)
         self.rates: tuple[tuple[int, int], ...] | None = None  # (every, phase) per update
+        # steps that run in every iteration, active or not (a lane's handovers)
+        self.always: tuple[bool, ...] | None = None
+        # a lane on logical execution time runs every ``stride`` iterations of the loop
+        # (its iterations count in the loop's numbers), and after an overrun skips the
+        # releases it missed, on the loop's grid, rather than running them late
+        self.stride = 1
+        self.skip_missed = False
+        self.missed = 0  # releases skipped that way
         self.updates = updates  # all active
         self.clock = clock
         self.state = state
@@ -180,6 +200,7 @@ class Executor:
     def updates(self, updates: Sequence[Callable[[], object]]) -> None:
         self._updates = tuple(updates)
         self.rates = None
+        self.always = None
         self.set_active([True] * len(self._updates))
 
     def set_active(self, active: Sequence[bool]) -> None:
@@ -188,14 +209,21 @@ class Executor:
         Call it between iterations (a feeder, ``idle``) or between runs. It compiles a
         new plan (allocation, outside the loop's steady state) and swaps it in.
         """
-        plans = compile_plans(self.updates, active, self.rates)
+        plans = compile_plans(self.updates, active, self.rates, self.always)
         self.hyperperiod = len(plans)  # the loop picks plans[i % hyperperiod]
         self.plans = plans
         self.plan = plans[0]
 
-    def set_rates(self, rates: Sequence[tuple[int, int]], active: Sequence[bool]) -> None:
-        """Run update ``k`` every ``rates[k][0]`` iterations from phase ``rates[k][1]``."""
+    def set_rates(
+        self,
+        rates: Sequence[tuple[int, int]],
+        active: Sequence[bool],
+        always: Sequence[bool] | None = None,
+    ) -> None:
+        """Run update ``k`` every ``rates[k][0]`` iterations from phase ``rates[k][1]``;
+        where ``always[k]``, in every iteration whatever its rate and active flag."""
         self.rates = tuple(rates)
+        self.always = tuple(always) if always is not None else None
         self.set_active(active)
 
     def run(self, iterations: int | None, stop: StopFlag) -> int:
@@ -216,8 +244,10 @@ class Executor:
         words = timing.words
         scratch = timing.scratch
         cell = stop.cell
-        period = state.period_ns
+        stride = self.stride
+        period = state.period_ns * stride
         relative = self.relative
+        skip_missed = self.skip_missed
         idle = self.idle
         feeders = self.feeders
         overruns = timing.overruns
@@ -241,13 +271,13 @@ class Executor:
         fresh = origin is None
         if origin is None:
             origin = self.origin_ns = deadline
-        i = state.iteration + 1
-        end = -1 if iterations is None else i + iterations
+        i = state.iteration + stride
+        end = sys.maxsize if iterations is None else i + iterations
         first = i
         k = -1
         state.running = True
         try:
-            while i != end and not cell[0]:
+            while i < end and not cell[0]:
                 off = reserve()  # before the sleep: not part of the measured times
                 row: MutableSequence[int] | memoryview
                 if off >= 0:
@@ -288,6 +318,11 @@ class Executor:
                     row[b + COL_OVERRAN] = 1
                     if relative:
                         deadline = t + period
+                    elif skip_missed and t > deadline:  # the next release is due already
+                        missed = (t - deadline) // period + 1
+                        deadline += missed * period
+                        i += missed * stride
+                        self.missed += missed
                     streak += 1
                     if i >= window_end:
                         window_end = i + window
@@ -310,7 +345,7 @@ class Executor:
                 if off >= 0:
                     commit()
                 count += 1
-                i += 1
+                i += stride
                 if idle is not None:
                     idle()
         except BaseException as exc:  # SystemExit and KeyboardInterrupt are named too

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import heapq
 import re
-from collections.abc import Iterable, Sequence
+from collections.abc import Collection, Iterable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -43,6 +43,7 @@ class GraphNode:
     is_first: bool = False
     ignore_pattern: re.Pattern[str] | None = None
     label: str = ""  # e.g. the class name, for printing
+    lane: str = "main"  # the lane (worker process) it runs in (rtcf._core._lanes)
 
 
 @dataclass(frozen=True)
@@ -52,7 +53,8 @@ class Edge:
     topic: str
     producer: PortInfo
     consumer: PortInfo
-    ignored_by: str | None = None  # None, "is_first" or "topics_ignore_for_graph"
+    # None, "is_first", "topics_ignore_for_graph" or "logical execution time" (lanes)
+    ignored_by: str | None = None
 
     @property
     def orders(self) -> bool:
@@ -79,8 +81,13 @@ def types_compatible(produced: type[Any], consumed: type[Any]) -> bool:
     return consumed is object or produced is consumed or issubclass(produced, consumed)
 
 
-def build_graph(nodes: Sequence[GraphNode]) -> Graph:
-    """Connect ports by topic, check types and producers, and order the components."""
+def build_graph(nodes: Sequence[GraphNode], let_lanes: Collection[str] = ()) -> Graph:
+    """Connect ports by topic, check types and producers, and order the components.
+
+    An edge between two lanes one of which runs on logical execution time (``let_lanes``)
+    does not order: the value crosses at a release or a window's end, not in the
+    iteration's order.
+    """
     names = [n.name for n in nodes]
     dupes = sorted({n for n in names if names.count(n) > 1})
     if dupes:
@@ -125,7 +132,10 @@ def build_graph(nodes: Sequence[GraphNode]) -> Graph:
                     f"{_type_name(inp.type)}; make both ports the same type or remap one"
                 )
             ignored_by = None
-            if node.is_first:
+            lanes = (by_name[out.component].lane, node.lane)
+            if lanes[0] != lanes[1] and (lanes[0] in let_lanes or lanes[1] in let_lanes):
+                ignored_by = "logical execution time"
+            elif node.is_first:
                 ignored_by = "is_first"
             elif node.ignore_pattern is not None and node.ignore_pattern.fullmatch(inp.topic):
                 ignored_by = "topics_ignore_for_graph"

@@ -27,6 +27,8 @@ from ._faults import (
     downstream,
 )
 from ._graph import Graph, GraphNode, PortInfo, build_graph
+from ._lane_names import MAIN_LANE, validate_lane_name
+from ._lanes import UPDATE, Connection, Lane, LocalLet, Member, Step, lane_of, lane_steps, lanes_of
 from ._lifecycle import (
     ACTIVATE,
     ACTIVE,
@@ -56,7 +58,7 @@ from ._loop_state import LoopState
 from ._message_types import type_name
 from ._names import Resolver, join, normalize_namespace, validate_name
 from ._params import ParameterStore
-from ._ports import InputPort, OutputPort
+from ._ports import InputPort, OutputPort, Slot
 from ._rates import Rate, plan_table, spread
 from ._rings import Ring
 from ._settings import RunnerSettings
@@ -89,6 +91,7 @@ class ComponentSpec:
     log_level: int | None = None
     policy: FailurePolicy = field(default_factory=FailurePolicy)
     rate: Rate = field(default_factory=Rate)  # how often it runs (rate, every, phase)
+    lane: str = ""  # the worker process (lane) it runs in; "" or "main": the runner's own
 
     @property
     def full_name(self) -> str:
@@ -165,7 +168,17 @@ class Runner:
         self._graph: Graph | None = None
         self._executor: Executor | None = None
         self._previous: Executor | None = None  # the last executor, for the time grid
-        self._schedule: list[str] = []
+        self._schedule: list[str] = []  # timing columns: components, and lanes' handovers
+        # lanes: the lane this runner runs (None: every lane, in this process), what it
+        # knows of the components loaded in the other lanes' processes, and what makes
+        # a handover step of a lane plan (the runtime's shared memory)
+        self.lane: str | None = None
+        self._foreign_nodes: list[GraphNode] = []
+        self._foreign_members: list[Member] = []
+        self.handovers: Callable[[Step], Callable[[], object]] | None = None
+        self._stubs: dict[str, OutputPort[Any]] = {}  # foreign producers' topics
+        self._let_slots: dict[tuple[str, str], Slot] = {}  # in-process LET (lane, topic)
+        self._visible: dict[str, Slot] = {}  # LET outputs as the other lanes see them
         self._rates: list[tuple[int, int]] = []  # (every, phase) per scheduled component
         # told of every lifecycle change of a component: a transition, a fault's take-out
         self.transition_listeners: list[Callable[[str, TransitionOutcome], None]] = []
@@ -197,6 +210,10 @@ class Runner:
         problem = validate_name(spec.name, what="component name")
         if problem or "/" in spec.name:
             raise fail(problem or "a component name must not contain '/'; use the namespace")
+        if spec.lane and validate_lane_name(spec.lane):
+            raise fail(f"lane {spec.lane!r}: {validate_lane_name(spec.lane)}")
+        if self.lane is not None and lane_of(spec.lane) != self.lane:
+            raise fail(f"is for lane {lane_of(spec.lane)!r}, but this runs lane {self.lane!r}")
         if full in self._loaded:
             raise fail("is already loaded; give each component a unique name")
         s = self.settings
@@ -515,8 +532,7 @@ class Runner:
         """Swap in the plan of the active components (between iterations)."""
         executor = self._executor
         if executor is not None:
-            loaded = self._loaded
-            executor.set_active([loaded[n].state == ACTIVE for n in self._schedule])
+            executor.set_active(self._active_flags())
 
     def activate(self) -> None:
         """Allow the loop to run (mode ``wait_for_trigger``; the original's activate_rt_loop)."""
@@ -583,19 +599,92 @@ class Runner:
                     is_first=entry.spec.is_first,
                     ignore_pattern=entry.ignore,
                     label=type(comp).__name__,
+                    lane=lane_of(entry.spec.lane),
                 )
             )
         return nodes
 
+    # -- lanes ----------------------------------------------------------------------
+    def members(self) -> list[Member]:
+        """What the other lanes must know of this runner's components (with
+        :meth:`graph_nodes`): lane, rate, cost, whether the loop calls them."""
+        frequency = self.settings.frequency
+        out = []
+        for full, entry in self._loaded.items():
+            every, phase = entry.spec.rate.divider(frequency, full)
+            out.append(
+                Member(
+                    full,
+                    lane_of(entry.spec.lane),
+                    every,
+                    phase,
+                    entry.spec.rate.cost,
+                    overrides(entry.component, "update"),
+                )
+            )
+        return out
+
+    def set_foreign(self, nodes: Sequence[GraphNode], members: Sequence[Member]) -> None:
+        """The components loaded in the other lanes' processes (a worker, between
+        runs): the order, the rates and the handovers are computed over all of them."""
+        self._foreign_nodes = list(nodes)
+        self._foreign_members = list(members)
+        self._invalidate()
+
+    def lanes(self) -> dict[str, Lane]:
+        """Every lane with its members in the data-flow order, main first."""
+        return lanes_of(self._all_members(), self.graph.order)
+
+    def _all_members(self) -> list[Member]:
+        return self.members() + self._foreign_members
+
+    @property
+    def has_lanes(self) -> bool:
+        return any(m.lane != MAIN_LANE for m in self._all_members())
+
     @property
     def graph(self) -> Graph:
-        """The resolved data-flow graph (built on demand after loads and unloads)."""
+        """The resolved data-flow graph (built on demand after loads and unloads): of
+        every lane's components, this process's and the others'."""
         if self._graph is None:
-            graph = build_graph(self.graph_nodes())
+            members = self._all_members()
+            kinds = lanes_of(members, [])  # a lane that mixes rates is an error here
+            let = {name for name, lane in kinds.items() if lane.let}
+            graph = build_graph(self.graph_nodes() + self._foreign_nodes, let_lanes=let)
+            lanes = {m.name: m.lane for m in members}
             for fb, primary in self.fallbacks().items():  # right after what it stands in for
                 graph.order.insert(graph.order.index(primary) + 1, fb)
+            for name, entry in self._loaded.items():
+                fb = entry.spec.policy.fallback
+                if fb and fb not in self._loaded and lanes.get(fb, lanes[name]) != lanes[name]:
+                    raise ConfigurationError(
+                        f"component {name!r}: its fallback {fb!r} is in lane {lanes[fb]!r}, "
+                        f"not in its own lane {lanes[name]!r}: a fallback writes the outputs "
+                        "of the component it stands in for, so put both in one lane"
+                    )
+            if len(kinds) > 1 and self.settings.wait_policy != "absolute":
+                raise ConfigurationError(
+                    f"runner {self.name!r}: wait_policy {self.settings.wait_policy!r} does not "
+                    "go with lanes: lanes keep one time grid (wait_policy absolute)"
+                )
             self._graph = graph
         return self._graph
+
+    def _connections(self) -> list[Connection]:
+        edges = self.graph.edges
+        return [Connection(e.topic, e.producer.component, e.consumer.component) for e in edges]
+
+    def lane_plan(self) -> list[Step]:
+        """The steps of this runner's lane (the main lane in a runner of every lane)."""
+        lane = self.lane or MAIN_LANE
+        members = {m.name: m for m in self._all_members()}
+        return lane_steps(lane, self.lanes(), members, self.graph.order, self._connections())
+
+    def visible_slots(self) -> dict[str, Slot]:
+        """The slots other lanes read a LET lane's outputs from (a trace samples these)."""
+        if self._executor is None:
+            self._executor = self._compile()
+        return dict(self._visible)
 
     @property
     def order(self) -> list[str]:
@@ -604,12 +693,21 @@ class Runner:
     def _compile(self) -> Executor:
         graph = self.graph
         fallbacks = self.fallbacks()
-        outputs = {
+        outputs: dict[str, OutputPort[Any]] = {
             p.topic: p
             for n, e in self._loaded.items()
             if n not in fallbacks
             for p in e.component._rtcf_outputs.values()
         }
+        # a topic produced in another lane's process: its value arrives by a handover
+        # into a stand-in output's slot, which this lane's readers share
+        for node in self._foreign_nodes:
+            for info in node.outputs:
+                stub = self._stubs.get(info.topic)
+                if stub is None or stub.type is not info.type:
+                    stub = self._stubs[info.topic] = OutputPort(node.name, info.name, info.type)
+                    stub.topic = info.topic
+                outputs.setdefault(info.topic, stub)
         for entry in self._loaded.values():
             for port in entry.component._rtcf_inputs.values():
                 port._connect(outputs.get(port.topic))
@@ -617,22 +715,75 @@ class Runner:
             for out in self._loaded[fb].component._rtcf_outputs.values():
                 if out.topic in outputs:
                     out._slot = outputs[out.topic]._slot
-        # components whose update is not overridden cost nothing in the loop
-        scheduled = [n for n in graph.order if overrides(self._loaded[n].component, "update")]
-        self._schedule = scheduled
+        lanes = lanes_of(self._all_members(), graph.order)
+        let = {name: lane for name, lane in lanes.items() if lane.let}
+        members = {m.name: m for m in self._all_members()}
+        # the rates of the loop's lock-step components, spread over the phases as one
+        # plan in every lane; a LET lane's are its lane's
+        spread_names = [
+            n for n in graph.order if members[n].scheduled and members[n].lane not in let
+        ]
+        spread_rates = dict(
+            zip(
+                spread_names,
+                spread(
+                    spread_names,
+                    [(members[n].every, members[n].phase) for n in spread_names],
+                    [members[n].cost for n in spread_names],
+                ),
+                strict=True,
+            )
+        )
+        for lane in let.values():
+            for n in lane.members:
+                spread_rates[n] = (lane.every, lane.phase)
+        updates: list[Callable[[], object]] = []
+        labels: list[str] = []
+        rates: list[tuple[int, int]] = []
+        always: list[bool] = []
+        stride = 1
+
+        def add(label: str, update: Callable[[], object], rate: tuple[int, int], pin: bool) -> None:
+            labels.append(label)
+            updates.append(update)
+            rates.append(rate)
+            always.append(pin)
+
+        self._visible = {}
+        if self.lane is None:  # every lane here, one after the other: the reference
+            local = self._local_let(let, lanes)
+            if local is not None:
+                add("@let", local, (1, 0), True)
+            for lane in let.values():  # released first, on what the step above took
+                for n in lane.members:
+                    if members[n].scheduled:
+                        add(n, self._loaded[n].component.update, spread_rates[n], False)
+            for n in graph.order:
+                if members[n].scheduled and members[n].lane not in let:
+                    add(n, self._loaded[n].component.update, spread_rates[n], False)
+        else:
+            here = lanes[self.lane]
+            if here.let:
+                stride = here.every
+            for step in self.lane_plan():
+                if step.kind == UPDATE:
+                    n = step.name
+                    add(n, self._loaded[n].component.update, spread_rates[n], False)
+                elif self.handovers is not None:
+                    add(step.label, self.handovers(step), (1, 0), True)
+                else:  # compiled to name the columns; the runtime binds the handovers
+                    add(step.label, _unbound(step), (1, 0), True)
+        self._schedule = labels
         executor = Executor(
-            [self._loaded[n].component.update for n in scheduled],
+            updates,
             self.clock,
             self.state,
             wait_policy=self.settings.wait_policy,
         )
-        frequency = self.settings.frequency
-        dividers = [self._loaded[n].spec.rate.divider(frequency, n) for n in scheduled]
-        costs = [self._loaded[n].spec.rate.cost for n in scheduled]
-        self._rates = spread(scheduled, dividers, costs)
-        executor.set_rates(
-            self._rates, [self._loaded[n].state == ACTIVE for n in scheduled]
-        )
+        executor.stride = stride
+        executor.skip_missed = stride > 1
+        self._rates = rates
+        executor.set_rates(rates, self._active_flags(), always)
         if self.running_cell is not None:
             executor.running = self.running_cell
         executor.max_consecutive_overruns = self.settings.max_consecutive_overruns
@@ -643,6 +794,50 @@ class Runner:
             executor.next_deadline_ns = previous.next_deadline_ns
         return executor
 
+    def _active_flags(self) -> list[bool]:
+        loaded = self._loaded
+        return [n not in loaded or loaded[n].state == ACTIVE for n in self._schedule]
+
+    def _local_let(self, let: dict[str, Lane], lanes: dict[str, Lane]) -> LocalLet | None:
+        """LET in this process: private slots for the LET lanes' crossing inputs and
+        outputs, and the step that copies them at releases and window ends."""
+        if not let:
+            return None
+        lane_of_comp = {n: lane.name for lane in lanes.values() for n in lane.members}
+        comps = {n: e.component for n, e in self._loaded.items()}
+        writers = {p.topic: p for c in comps.values() for p in c._rtcf_outputs.values()}
+        slots = self._let_slots
+        takes: dict[str, dict[str, Slot]] = {name: {} for name in let}  # topic -> source
+        shows: dict[str, dict[str, Slot]] = {name: {} for name in let}  # topic -> public
+        for n, comp in comps.items():
+            reader = lane_of_comp.get(n, "")
+            for port in comp._rtcf_inputs.values():
+                producer = port.producer
+                source = lane_of_comp.get(producer.component, "") if producer else reader
+                if source == reader or (source not in let and reader not in let):
+                    continue
+                topic = port.topic
+                src = producer._slot if producer is not None else port._slot
+                if source in let:  # what the others see of a LET lane's output
+                    src = slots.setdefault(("", topic), Slot())
+                    shows[source][topic] = src
+                if reader in let:  # a LET lane's input, taken at its release
+                    takes[reader][topic] = src
+                    src = slots.setdefault((reader, topic), Slot())
+                port._slot = src
+        plan = []
+        for name, lane in let.items():
+            self._visible.update(shows[name])
+            plan.append(
+                (
+                    lane.every,
+                    lane.phase,
+                    [(src, slots[(name, t)]) for t, src in sorted(takes[name].items())],
+                    [(writers[t]._slot, dst) for t, dst in sorted(shows[name].items())],
+                )
+            )
+        return LocalLet(self.state, plan)
+
     def start_components(self) -> None:
         """Activate (``start``) the components loaded since the loop last started, in
         execution order; ``run`` does it first. One that a lifecycle transition left
@@ -652,7 +847,9 @@ class Runner:
         started = False
         standing_by = self.fallbacks()  # a fallback starts when its primary fails
         for name in self.graph.order:
-            entry = self._loaded[name]
+            entry = self._loaded.get(name)
+            if entry is None:  # another lane's
+                continue
             if entry.state != INACTIVE or not entry.autostart or name in standing_by:
                 continue
             try:
@@ -778,7 +975,14 @@ class Runner:
         """Apply the failed component's policy; raise ComponentError if the loop ends."""
         self.drain_logs()
         name = self._schedule[failure.index]
-        entry = self._loaded[name]
+        entry = self._loaded.get(name)
+        if entry is None:  # a lane's handover, not a component: a bug or bad data
+            self.safe_stop(f"the lane handover {name!r} failed")
+            exc = failure.error
+            raise LoopError(
+                f"runner {self.name!r}: lane handover {name!r} raised {type(exc).__name__}: "
+                f"{exc} at iteration {failure.iteration}; the loop was stopped"
+            ) from exc
         exc = failure.error
         error = type(exc).__name__ + (f": {exc}" if str(exc) else "")
         policy = entry.spec.policy
@@ -814,7 +1018,12 @@ class Runner:
             fallback = ""  # not ready to take over (failed itself, or unconfigured)
         # with a fallback, what reads the failed component's outputs goes on
         affected = [name] if fallback else downstream(name, edges)
-        victims = [n for n in affected if n == name or self._loaded[n].state == ACTIVE]
+        # (another lane's components take their inputs as they stand: the values stop)
+        victims = [
+            n
+            for n in affected
+            if n == name or (n in self._loaded and self._loaded[n].state == ACTIVE)
+        ]
         taken = []
         for n in victims:
             entry = self._loaded[n]
@@ -849,7 +1058,9 @@ class Runner:
             order = self.graph.order
         except RtcfError:
             order = list(self._loaded)
-        names = [n for n in reversed(order) if self._loaded[n].state == ACTIVE]
+        names = [
+            n for n in reversed(order) if n in self._loaded and self._loaded[n].state == ACTIVE
+        ]
         if reason:
             s = self.state
             self._log_emit(
@@ -940,7 +1151,9 @@ class Runner:
             self._executor = self._compile()
         if all(every == 1 for every, _ in self._rates):
             return None
-        costs = [self._loaded[n].spec.rate.cost for n in self._schedule]
+        costs = [
+            self._loaded[n].spec.rate.cost if n in self._loaded else 0.0 for n in self._schedule
+        ]
         return plan_table(self._schedule, self._rates, costs, self.settings.frequency)
 
     @property
@@ -1005,3 +1218,10 @@ def _port_info(port: Any) -> dict[str, Any]:
 
 def _info(component: str, port: Any) -> PortInfo:
     return PortInfo(component, port.name, port.topic, port.type)
+
+
+def _unbound(step: Step) -> Callable[[], object]:
+    def unbound() -> None:
+        raise RuntimeError(f"lane handover {step.label!r} is not bound to its shared memory")
+
+    return unbound

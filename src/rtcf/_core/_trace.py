@@ -12,15 +12,25 @@ from typing import Any
 
 from ._component import Component
 from ._loop_state import LoopState
+from ._ports import Slot
 
 
 class Trace:
-    def __init__(self, components: dict[str, Component], state: LoopState) -> None:
+    """``visible``: slots to sample instead of a port's own (what the other lanes see
+    of a lane on logical execution time: its values of the window, not of its run)."""
+
+    def __init__(
+        self,
+        components: dict[str, Component],
+        state: LoopState,
+        visible: dict[str, Slot] | None = None,
+    ) -> None:
         ports = sorted(
             (p for c in components.values() for p in c.outputs.values()), key=lambda p: p.topic
         )
         self.topics = [p.topic for p in ports]
-        self._slots = [p._slot for p in ports]
+        shown = visible or {}
+        self._slots = [shown.get(p.topic, p._slot) for p in ports]
         self._state = state
         self.rows: list[list[Any]] = []
 
