@@ -289,3 +289,55 @@ def test_an_executor_with_a_stride_runs_the_releases_and_skips_missed_ones() -> 
     assert ran[:3] == [2, 6, 18]
     assert ex.missed == 2
     assert ex.timing.overruns == 1
+
+
+ROS1_LAUNCH = """<launch>
+  <node name="rt_runner" pkg="rtcf" type="rt_runner">
+    <rosparam param="frequency">1000.0</rosparam>
+  </node>
+  <node name="src" pkg="rtcf" type="rt_launcher" args="rtcf_examples Sine">
+    <remap from="out" to="/x"/>
+  </node>
+  <node name="slow" pkg="rtcf" type="rt_launcher" args="rtcf_examples Identity">
+    <remap from="in_port" to="/x"/><remap from="out_port" to="/y"/>
+    <param name="every" value="10"/>
+    <param name="lane" value="{lane}"/>
+  </node>
+</launch>
+"""
+
+ROS2_LAUNCH = """<launch>
+  <node pkg="rtcf" exec="rt_runner" name="rt_runner">
+    <param name="frequency" value="1000.0"/>
+  </node>
+  <node pkg="rtcf" exec="rt_launcher" name="slow" args="rtcf_examples Identity">
+    <param name="every" value="10"/>
+    <param name="lane" value="mpc"/>
+  </node>
+</launch>
+"""
+
+
+def test_a_launchers_lane_parameter_in_both_formats(tmp_path: pytest.TempPathFactory) -> None:
+    from rtcf._launch._files import load_deployment
+
+    ros1 = tmp_path / "lanes.launch"  # type: ignore[operator]
+    ros1.write_text(ROS1_LAUNCH.format(lane="mpc"))
+    specs = {s.name: s for s in load_deployment([str(ros1)]).runner.components}
+    assert specs["slow"].lane == "mpc" and specs["src"].lane == ""
+    assert "lane" not in specs["slow"].params  # read by the launcher, not a parameter
+    ros2 = tmp_path / "lanes.launch.xml"  # type: ignore[operator]
+    ros2.write_text(ROS2_LAUNCH)
+    (spec,) = load_deployment([str(ros2)]).runner.components
+    assert spec.lane == "mpc"
+
+
+def test_a_bad_lane_in_a_launch_file_names_file_and_line(tmp_path: pytest.TempPathFactory) -> None:
+    from rtcf._core._errors import LaunchError
+    from rtcf._launch._files import load_deployment
+
+    path = tmp_path / "bad.launch"  # type: ignore[operator]
+    path.write_text(ROS1_LAUNCH.format(lane="left arm"))
+    with pytest.raises(LaunchError, match="lane 'left arm' is not a valid lane name") as info:
+        load_deployment([str(path)])
+    assert info.value.file == str(path) and info.value.line == 8

@@ -111,14 +111,20 @@ def _describe_graph(graph: Graph, runner: Runner) -> str:
         flags = " [is_first]" if node.is_first else ""
         if node.ignore_pattern is not None:
             flags += f" [topics_ignore_for_graph: {node.ignore_pattern.pattern}]"
-        lines.append(f"  {node.name} ({node.label}){flags}")
+        lane = f" [lane {node.lane}]" if len({n.lane for n in graph.nodes}) > 1 else ""
+        lines.append(f"  {node.name} ({node.label}){flags}{lane}")
         for p in node.inputs:
             lines.append(f"    in  {p.name:<12} <- {p.topic} [{p.type.__name__}]")
         for p in node.outputs:
             lines.append(f"    out {p.name:<12} -> {p.topic} [{p.type.__name__}]")
     lines.append(f"connections ({len(graph.edges)}):")
     for e in sorted(graph.edges, key=lambda e: (e.topic, e.consumer.qualified_name)):
-        note = "" if e.orders else f"   (not ordered: {e.ignored_by}; one iteration late)"
+        late = (
+            "at the lane's release or window's end"
+            if e.ignored_by == "logical execution time"
+            else "one iteration late"
+        )
+        note = "" if e.orders else f"   (not ordered: {e.ignored_by}; {late})"
         lines.append(
             f"  {e.topic}: {e.producer.qualified_name} -> {e.consumer.qualified_name}{note}"
         )
@@ -247,6 +253,17 @@ def cmd_launch(ns: argparse.Namespace) -> int:
             f"wait_policy {settings.wait_policy}), loop in worker process {runner.pid}"
         )
         _say("order: " + " -> ".join(info["order"]))
+        if len(info.get("lanes", [])) > 1:
+            _say(
+                "lanes: "
+                + "; ".join(
+                    f"{name} ({'LET, every ' + str(every) if every > 1 else 'lock step'}): "
+                    + (", ".join(members) or "no component")
+                    for name, every, members in info["lanes"]
+                )
+                + ". They run in this worker process one after the other for now, with the "
+                "values of lanes in their own processes (docs/runner.md#lanes)"
+            )
         if bridge is not None:
             mapped = mapping(runner.introspect(), settings.ros_mapping_whitelist)
             _say(f"{ns.middleware}: {mapped}")

@@ -16,6 +16,7 @@ from typing import Any
 
 from .._core._errors import ConfigurationError, LaunchError, Location
 from .._core._faults import FailurePolicy
+from .._core._lane_names import lane_from_params
 from .._core._names import join, normalize_namespace
 from .._core._params import ParameterStore
 from .._core._rates import Rate
@@ -40,6 +41,7 @@ LAUNCHER_PARAMS = (
     "every",
     "phase",
     "cost_us",
+    "lane",
 )
 
 
@@ -193,6 +195,7 @@ def _component_spec(node: NodeDescription, params: ParameterStore) -> tuple[Comp
     try:
         policy = FailurePolicy.from_params(private, node.full_name)
         rate = Rate.from_params(private, node.full_name)
+        lane = lane_from_params(private, node.full_name)
     except ConfigurationError as exc:
         raise err(exc.message) from None
     spec = ComponentSpec(
@@ -206,6 +209,7 @@ def _component_spec(node: NodeDescription, params: ParameterStore) -> tuple[Comp
         location=loc,
         policy=policy,
         rate=rate,
+        lane=lane,
     )
     return spec, str(runner_name)
 

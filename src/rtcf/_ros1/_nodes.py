@@ -49,6 +49,7 @@ from typing import TYPE_CHECKING, Any
 
 from .._core._errors import RtcfError
 from .._core._faults import FailurePolicy
+from .._core._lane_names import lane_from_params
 from .._core._log import LogLevel
 from .._core._rates import Rate
 from .._core._runner import ComponentSpec
@@ -240,6 +241,7 @@ def runner_main(argv: list[str] | None = None) -> int:
         private = private if isinstance(private, dict) else {}
         spec.policy = FailurePolicy.from_params(private, spec.full_name)
         spec.rate = Rate.from_params(private, spec.full_name)  # rate, every, phase
+        spec.lane = lane_from_params(private, spec.full_name)
         runner.load(spec, launcher=launcher)
         try:  # the graph with it: a cycle or a second producer refuses this load
             runner.describe()  # and leaves the runner running with the others

@@ -42,6 +42,7 @@ from typing import Any
 from .._core._errors import RtcfError
 from .._core._executor import ABORT, STOP
 from .._core._faults import FailurePolicy
+from .._core._lane_names import lane_from_params
 from .._core._lifecycle import STATE_IDS, TransitionOutcome
 from .._core._rates import Rate
 from .._core._runner import ComponentSpec
@@ -303,6 +304,7 @@ def _spec(values: dict[str, Any]) -> tuple[ComponentSpec, str]:
     )
     spec.policy = FailurePolicy.from_params(params, spec.full_name)  # on_error, fallback
     spec.rate = Rate.from_params(params, spec.full_name)  # rate, every, phase, cost_us
+    spec.lane = lane_from_params(params, spec.full_name)
     return spec, str(values.get("launcher") or "")
 
 

@@ -303,6 +303,7 @@ class Worker:
             "warnings": list(graph.warnings),
             "not_ready": runner.not_ready_reason(),
             "edges": len(graph.edges),
+            "lanes": [(n, lane.every, list(lane.members)) for n, lane in runner.lanes().items()],
         }
 
     def prepare(self, bridged: bool, record: str | None = None) -> dict[str, Any]:
@@ -329,7 +330,9 @@ class Worker:
     ) -> dict[str, Any]:
         runner = self._runner()
         ring = Ring.open(seg.buf)
-        trace = Trace(runner.components, runner.state) if trace_path else None
+        trace = None
+        if trace_path:  # a LET lane's outputs as the others see them
+            trace = Trace(runner.components, runner.state, runner.visible_slots())
         bridge = None
         if port_seg is not None and ports:
             bridge = WorkerPorts(
