@@ -66,9 +66,6 @@ class Lane:
     def let(self) -> bool:
         return self.every > 1
 
-    def releases(self, i: int) -> bool:
-        return self.every == 1 or (i - self.phase) % self.every == 0
-
 
 @dataclass(frozen=True)
 class Step:

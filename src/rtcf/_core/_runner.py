@@ -210,8 +210,9 @@ class Runner:
         problem = validate_name(spec.name, what="component name")
         if problem or "/" in spec.name:
             raise fail(problem or "a component name must not contain '/'; use the namespace")
-        if spec.lane and validate_lane_name(spec.lane):
-            raise fail(f"lane {spec.lane!r}: {validate_lane_name(spec.lane)}")
+        problem = validate_lane_name(spec.lane) if spec.lane else None
+        if problem:
+            raise fail(f"lane {problem}")
         if self.lane is not None and lane_of(spec.lane) != self.lane:
             raise fail(f"is for lane {lane_of(spec.lane)!r}, but this runs lane {self.lane!r}")
         if full in self._loaded:
@@ -639,10 +640,6 @@ class Runner:
         return self.members() + self._foreign_members
 
     @property
-    def has_lanes(self) -> bool:
-        return any(m.lane != MAIN_LANE for m in self._all_members())
-
-    @property
     def graph(self) -> Graph:
         """The resolved data-flow graph (built on demand after loads and unloads): of
         every lane's components, this process's and the others'."""
@@ -670,15 +667,16 @@ class Runner:
             self._graph = graph
         return self._graph
 
-    def _connections(self) -> list[Connection]:
-        edges = self.graph.edges
-        return [Connection(e.topic, e.producer.component, e.consumer.component) for e in edges]
-
     def lane_plan(self) -> list[Step]:
         """The steps of this runner's lane (the main lane in a runner of every lane)."""
-        lane = self.lane or MAIN_LANE
         members = {m.name: m for m in self._all_members()}
-        return lane_steps(lane, self.lanes(), members, self.graph.order, self._connections())
+        return self._lane_plan(self.lanes(), members)
+
+    def _lane_plan(self, lanes: dict[str, Lane], members: dict[str, Member]) -> list[Step]:
+        edges = self.graph.edges
+        connections = [Connection(e.topic, e.producer.component, e.consumer.component)
+                       for e in edges]
+        return lane_steps(self.lane or MAIN_LANE, lanes, members, self.graph.order, connections)
 
     def visible_slots(self) -> dict[str, Slot]:
         """The slots other lanes read a LET lane's outputs from (a trace samples these)."""
@@ -715,9 +713,10 @@ class Runner:
             for out in self._loaded[fb].component._rtcf_outputs.values():
                 if out.topic in outputs:
                     out._slot = outputs[out.topic]._slot
-        lanes = lanes_of(self._all_members(), graph.order)
+        everyone = self._all_members()
+        lanes = lanes_of(everyone, graph.order)
         let = {name: lane for name, lane in lanes.items() if lane.let}
-        members = {m.name: m for m in self._all_members()}
+        members = {m.name: m for m in everyone}
         # the rates of the loop's lock-step components, spread over the phases as one
         # plan in every lane; a LET lane's are its lane's
         spread_names = [
@@ -751,7 +750,7 @@ class Runner:
 
         self._visible = {}
         if self.lane is None:  # every lane here, one after the other: the reference
-            local = self._local_let(let, lanes)
+            local = self._local_let(let, members)
             if local is not None:
                 add("@let", local, (1, 0), True)
             for lane in let.values():  # released first, on what the step above took
@@ -765,7 +764,7 @@ class Runner:
             here = lanes[self.lane]
             if here.let:
                 stride = here.every
-            for step in self.lane_plan():
+            for step in self._lane_plan(lanes, members):
                 if step.kind == UPDATE:
                     n = step.name
                     add(n, self._loaded[n].component.update, spread_rates[n], False)
@@ -798,12 +797,12 @@ class Runner:
         loaded = self._loaded
         return [n not in loaded or loaded[n].state == ACTIVE for n in self._schedule]
 
-    def _local_let(self, let: dict[str, Lane], lanes: dict[str, Lane]) -> LocalLet | None:
+    def _local_let(self, let: dict[str, Lane], members: dict[str, Member]) -> LocalLet | None:
         """LET in this process: private slots for the LET lanes' crossing inputs and
         outputs, and the step that copies them at releases and window ends."""
         if not let:
             return None
-        lane_of_comp = {n: lane.name for lane in lanes.values() for n in lane.members}
+        lane_of_comp = {n: m.lane for n, m in members.items()}
         comps = {n: e.component for n, e in self._loaded.items()}
         writers = {p.topic: p for c in comps.values() for p in c._rtcf_outputs.values()}
         slots = self._let_slots
