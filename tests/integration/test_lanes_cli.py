@@ -34,7 +34,8 @@ def test_a_let_lane_reads_at_its_release_and_shows_at_the_next_window(tmp_path):
     trace = tmp_path / "t.csv"
     done = run_rtcf("launch", launch, "--sim", "--duration", "0.05", "--trace", trace)
     assert done.returncode == 0, done.stderr
-    assert "lanes: main (lock step): /sink, /src; mpc (LET, every 10): /slow" in done.stderr
+    assert "lanes: main (lock step): /sink, /src; mpc (LET, every 10; " in done.stderr
+    assert "): /slow; each lane a worker process of its own" in done.stderr
     with open(trace) as f:
         rows = list(csv.DictReader(f))
     assert len(rows) == 50

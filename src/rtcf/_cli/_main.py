@@ -254,15 +254,17 @@ def cmd_launch(ns: argparse.Namespace) -> int:
         )
         _say("order: " + " -> ".join(info["order"]))
         if len(info.get("lanes", [])) > 1:
+            where = runner.lane_placement
             _say(
                 "lanes: "
                 + "; ".join(
-                    f"{name} ({'LET, every ' + str(every) if every > 1 else 'lock step'}): "
+                    f"{name} ({'LET, every ' + str(every) if every > 1 else 'lock step'}"
+                    + (f"; {where[name]}" if name in where else "")
+                    + "): "
                     + (", ".join(members) or "no component")
                     for name, every, members in info["lanes"]
                 )
-                + ". They run in this worker process one after the other for now, with the "
-                "values of lanes in their own processes (docs/runner.md#lanes)"
+                + "; each lane a worker process of its own (docs/runner.md#lanes)"
             )
         if bridge is not None:
             mapped = mapping(runner.introspect(), settings.ros_mapping_whitelist)

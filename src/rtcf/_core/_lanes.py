@@ -128,6 +128,7 @@ def lane_steps(
     members: Mapping[str, Member],
     order: Sequence[str],
     connections: Iterable[Connection],
+    mirror: Mapping[str, str] | None = None,
 ) -> list[Step]:
     """The steps of one lane: its components' updates in the global order, and the
     handovers of the values that cross into and out of it.
@@ -139,6 +140,10 @@ def lane_steps(
     skipped, so readers never wait in vain). A LET lane takes its inputs first and
     hands its outputs over last; a reader of a LET lane's output takes the new value
     at the start of each of its windows.
+
+    ``mirror`` (topic -> producing component) are topics the main lane receives at
+    the end of each iteration whoever reads them (a trace of every topic): their
+    value after the iteration, or a LET lane's visible one.
     """
     here = lanes[lane]
     rank = {n: k for k, n in enumerate(order)}
@@ -164,6 +169,21 @@ def lane_steps(
                 takes[c.topic] = source
             else:
                 reads.setdefault(c.consumer, []).append(c)
+    at_end: dict[str, str] = {}  # topic -> producing lane: the main lane's mirrors
+    for topic, producer in (mirror or {}).items():
+        source = lane_of_member.get(producer, MAIN_LANE)
+        if source == MAIN_LANE:
+            continue
+        if source == lane:
+            if here.let:
+                let_out.add(topic)
+            else:
+                sent.setdefault(producer, set()).add(topic)
+        elif lane == MAIN_LANE:
+            if lanes[source].let:
+                let_in[topic] = source
+            else:
+                at_end[topic] = source
     steps: list[Step] = []
     if here.let:
         steps += [Step(TAKE, t, True, takes[t]) for t in sorted(takes)]
@@ -184,6 +204,9 @@ def lane_steps(
         if members[name].scheduled:
             steps.append(Step(UPDATE, name))
         steps += [Step(SEND, t) for t in sorted(sent.get(name, ()))]
+    for topic in sorted(at_end):
+        if last.get(topic) is not False:
+            steps.append(Step(RECV, topic, False, at_end[topic]))
     return steps
 
 

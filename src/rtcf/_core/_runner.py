@@ -28,7 +28,19 @@ from ._faults import (
 )
 from ._graph import Graph, GraphNode, PortInfo, build_graph
 from ._lane_names import MAIN_LANE, validate_lane_name
-from ._lanes import UPDATE, Connection, Lane, LocalLet, Member, Step, lane_of, lane_steps, lanes_of
+from ._lanes import (
+    LET_OUT,
+    SEND,
+    UPDATE,
+    Connection,
+    Lane,
+    LocalLet,
+    Member,
+    Step,
+    lane_of,
+    lane_steps,
+    lanes_of,
+)
 from ._lifecycle import (
     ACTIVATE,
     ACTIVE,
@@ -129,6 +141,9 @@ class RunResult:
     aggregate: TimingAggregate | None = None
     faults: list[Fault] = field(default_factory=list)  # failures contained by a policy
     safe_stops: list[SafeStopOutcome] = field(default_factory=list)
+    # lanes in worker processes of their own: per lane other than main, what it did
+    # (iterations, overruns, timing, handovers late or lost, LET overruns)
+    lanes: dict[str, dict[str, Any]] = field(default_factory=dict)
 
 
 class Runner:
@@ -175,7 +190,9 @@ class Runner:
         self.lane: str | None = None
         self._foreign_nodes: list[GraphNode] = []
         self._foreign_members: list[Member] = []
-        self.handovers: Callable[[Step], Callable[[], object]] | None = None
+        self._mirror: set[str] = set()  # topics the main lane receives for a trace
+        # a handover step, bound to the port whose slot it fills or reads
+        self.handovers: Callable[[Step, OutputPort[Any]], Callable[[], object]] | None = None
         self._stubs: dict[str, OutputPort[Any]] = {}  # foreign producers' topics
         self._let_slots: dict[tuple[str, str], Slot] = {}  # in-process LET (lane, topic)
         self._visible: dict[str, Slot] = {}  # LET outputs as the other lanes see them
@@ -548,7 +565,8 @@ class Runner:
         return self.not_ready_reason() is None
 
     def not_ready_reason(self) -> str | None:
-        s, n = self.settings, len(self._loaded)
+        # (with lanes, the components of every lane count)
+        s, n = self.settings, len(self._loaded) + len(self._foreign_members)
         if n == 0:
             return "no component is loaded"
         if s.mode == "wait_for_components" and n < s.num_components_expected:
@@ -625,12 +643,50 @@ class Runner:
             )
         return out
 
-    def set_foreign(self, nodes: Sequence[GraphNode], members: Sequence[Member]) -> None:
+    def set_foreign(
+        self,
+        nodes: Sequence[GraphNode],
+        members: Sequence[Member],
+        mirror: Iterable[str] = (),
+    ) -> None:
         """The components loaded in the other lanes' processes (a worker, between
-        runs): the order, the rates and the handovers are computed over all of them."""
+        runs): the order, the rates and the handovers are computed over all of them.
+        ``mirror``: topics of other lanes the main lane receives after each iteration
+        whoever reads them (to trace them)."""
         self._foreign_nodes = list(nodes)
         self._foreign_members = list(members)
+        self._mirror = set(mirror)
         self._invalidate()
+
+    def foreign_slots(self) -> dict[str, Slot]:
+        """The slots that hold the values of other lanes' topics in this process."""
+        if self._executor is None:
+            self._executor = self._compile()
+        return {t: p._slot for t, p in self._stubs.items()}
+
+    @property
+    def missed_releases(self) -> int:
+        """Releases a LET lane skipped after overrunning its window (counted)."""
+        executor = self._executor or self._previous
+        return executor.missed if executor is not None else 0
+
+    @property
+    def time_grid(self) -> tuple[int | None, int | None]:
+        """Where the next iteration is due and the grid's origin (None: not started)."""
+        if self._executor is None:
+            self._executor = self._compile()
+        return self._executor.next_deadline_ns, self._executor.origin_ns
+
+    def resume_at(self, iteration: int, deadline_ns: int, origin_ns: int) -> None:
+        """Run ``iteration`` next, due at ``deadline_ns``, on a time grid that starts at
+        ``origin_ns``: where every lane of a run starts together."""
+        if self._executor is None:
+            self._executor = self._compile()
+        executor = self._executor
+        executor.next_deadline_ns = deadline_ns
+        if executor.origin_ns is None:
+            executor.origin_ns = origin_ns
+        self.state.iteration = iteration - executor.stride
 
     def lanes(self) -> dict[str, Lane]:
         """Every lane with its members in the data-flow order, main first."""
@@ -676,7 +732,13 @@ class Runner:
         edges = self.graph.edges
         connections = [Connection(e.topic, e.producer.component, e.consumer.component)
                        for e in edges]
-        return lane_steps(self.lane or MAIN_LANE, lanes, members, self.graph.order, connections)
+        producers = {
+            p.topic: n.name for n in self.graph_nodes() + self._foreign_nodes for p in n.outputs
+        }
+        mirror = {t: producers[t] for t in sorted(self._mirror) if t in producers}
+        return lane_steps(
+            self.lane or MAIN_LANE, lanes, members, self.graph.order, connections, mirror
+        )
 
     def visible_slots(self) -> dict[str, Slot]:
         """The slots other lanes read a LET lane's outputs from (a trace samples these)."""
@@ -769,7 +831,9 @@ class Runner:
                     n = step.name
                     add(n, self._loaded[n].component.update, spread_rates[n], False)
                 elif self.handovers is not None:
-                    add(step.label, self.handovers(step), (1, 0), True)
+                    sent = step.kind in (SEND, LET_OUT)
+                    at = outputs[step.name] if sent else self._stubs[step.name]
+                    add(step.label, self.handovers(step, at), (1, 0), True)
                 else:  # compiled to name the columns; the runtime binds the handovers
                     add(step.label, _unbound(step), (1, 0), True)
         self._schedule = labels

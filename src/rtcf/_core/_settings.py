@@ -38,6 +38,9 @@ class RunnerSettings:
     hook may take; past it the supervisor names the hook and ends the run.
     ``heartbeat_timeout``: seconds the worker waits for a sign of life from its
     supervisor while the loop runs before it stops through the safe-stop path (0: off).
+    ``lanes``: where the lanes other than main run, ``"name:cpu[:priority], ..."`` (or a
+    mapping of name to ``{"cpu": .., "priority": ..}``); a lane not named gets a CPU of
+    its own where one is left (:func:`lane_placement`).
     """
 
     mode: str = "no_wait"
@@ -61,6 +64,7 @@ class RunnerSettings:
     max_overruns_per_second: int = 0
     hook_timeout: float = 10.0
     heartbeat_timeout: float = 5.0
+    lanes: str = ""
     notes: list[str] = field(default_factory=list, compare=False)
 
     def __post_init__(self) -> None:
@@ -118,6 +122,10 @@ class RunnerSettings:
             raise bad(f"heartbeat_timeout {self.heartbeat_timeout!r} s must not be negative")
         if not 1 <= self.priority <= 99:
             raise bad(f"priority {self.priority} is out of range; SCHED_FIFO takes 1 to 99")
+        try:
+            parse_lanes(self.lanes)
+        except ValueError as exc:
+            raise bad(f"lanes {self.lanes!r}: {exc}") from None
 
     @classmethod
     def from_params(cls, params: Mapping[str, Any], where: str = "runner") -> RunnerSettings:
@@ -211,6 +219,7 @@ _CONVERTERS = {
     "max_overruns_per_second": _to_int,
     "hook_timeout": _to_float,
     "heartbeat_timeout": _to_float,
+    "lanes": lambda v: _lanes_text(v),
 }
 _EXPECTED = {
     "mode": "a string",
@@ -233,6 +242,76 @@ _EXPECTED = {
     "max_overruns_per_second": "an integer",
     "hook_timeout": "a number of seconds",
     "heartbeat_timeout": "a number of seconds",
+    "lanes": "'name:cpu[:priority], ...' or a mapping of lane names to {cpu, priority}",
 }
 # parameters a runner node may carry that are not settings
 _IGNORED: set[str] = set()
+
+
+def _lanes_text(v: Any) -> str:
+    """The ``lanes`` parameter as its text form (a mapping from YAML is accepted)."""
+    if isinstance(v, Mapping):
+        parts = []
+        for name, where in v.items():
+            if isinstance(where, Mapping):
+                cpu, prio = where.get("cpu"), where.get("priority")
+            else:
+                cpu, prio = where, None
+            text = f"{name}:{'' if cpu is None else cpu}"
+            parts.append(text + ("" if prio is None else f":{prio}"))
+        return ", ".join(parts)
+    if not isinstance(v, str):
+        raise TypeError(v)
+    return v
+
+
+def parse_lanes(text: str) -> dict[str, tuple[int | None, int | None]]:
+    """``"name:cpu[:priority], ..."`` as lane -> (cpu or None, priority or None)."""
+    out: dict[str, tuple[int | None, int | None]] = {}
+    for part in text.replace(";", ",").split(","):
+        part = part.strip()
+        if not part:
+            continue
+        fields = [f.strip() for f in part.split(":")]
+        if len(fields) > 3 or not fields[0]:
+            raise ValueError(f"{part!r} is not name:cpu[:priority]")
+        try:
+            cpu = int(fields[1]) if len(fields) > 1 and fields[1] else None
+            prio = int(fields[2]) if len(fields) > 2 and fields[2] else None
+        except ValueError:
+            raise ValueError(f"{part!r}: the CPU and the priority are integers") from None
+        if cpu is not None and cpu < 0:
+            raise ValueError(f"{part!r}: a CPU is a number from 0")
+        if prio is not None and not 1 <= prio <= 99:
+            raise ValueError(f"{part!r}: priority {prio} is out of range; SCHED_FIFO takes 1 to 99")
+        out[fields[0]] = (cpu, prio)
+    return out
+
+
+def lane_placement(
+    settings: RunnerSettings, lanes: list[str], allowed: list[int]
+) -> dict[str, tuple[int, int, str]]:
+    """Where each lane other than main runs: (CPU mask, priority, how it was chosen).
+
+    A lane named in ``settings.lanes`` gets its CPU and priority; the others get, in
+    order, a CPU of their own among ``allowed`` that neither the main lane (its
+    ``cpu_affinity_mask``) nor another lane has, from the highest down, and the
+    runner's priority; where none is left, the lane is not pinned (it says so).
+    """
+    given = parse_lanes(settings.lanes)
+    mask = settings.cpu_affinity_mask
+    taken = {c for c in allowed if mask >> c & 1}
+    taken |= {cpu for cpu, _ in given.values() if cpu is not None}
+    free = [c for c in sorted(allowed, reverse=True) if c not in taken]
+    out: dict[str, tuple[int, int, str]] = {}
+    for lane in lanes:
+        cpu, prio = given.get(lane, (None, None))
+        priority = prio if prio is not None else settings.priority
+        if cpu is not None:
+            out[lane] = (1 << cpu, priority, f"CPU {cpu} (the lanes parameter)")
+        elif free:
+            cpu = free.pop(0)
+            out[lane] = (1 << cpu, priority, f"CPU {cpu} (a CPU of its own)")
+        else:
+            out[lane] = (0, priority, "not pinned (no CPU left of its own)")
+    return out

@@ -17,20 +17,27 @@ from ._ports import Slot
 
 class Trace:
     """``visible``: slots to sample instead of a port's own (what the other lanes see
-    of a lane on logical execution time: its values of the window, not of its run)."""
+    of a lane on logical execution time: its values of the window, not of its run).
+    ``foreign``: the topics of the other lanes' processes, as the main lane receives
+    them."""
 
     def __init__(
         self,
         components: dict[str, Component],
         state: LoopState,
         visible: dict[str, Slot] | None = None,
+        foreign: dict[str, Slot] | None = None,
     ) -> None:
-        ports = sorted(
-            (p for c in components.values() for p in c.outputs.values()), key=lambda p: p.topic
-        )
-        self.topics = [p.topic for p in ports]
         shown = visible or {}
-        self._slots = [shown.get(p.topic, p._slot) for p in ports]
+        columns = [
+            (p.topic, shown.get(p.topic, p._slot))
+            for c in components.values()
+            for p in c.outputs.values()
+        ]
+        columns += sorted((foreign or {}).items())
+        columns.sort(key=lambda c: c[0])
+        self.topics = [t for t, _ in columns]
+        self._slots = [s for _, s in columns]
         self._state = state
         self.rows: list[list[Any]] = []
 

@@ -100,6 +100,17 @@ class Segment:
             os.close(fd)
         return cls(name, mapping)
 
+    def handle(self) -> Segment:
+        """One more handle on this segment, to hand to one more peer: a duplicate of
+        the descriptor and no mapping (closing it closes only the duplicate)."""
+        if self.fd < 0:
+            raise RuntimeError(f"segment {self.name}: its descriptor was already handed over")
+        other = Segment.__new__(Segment)
+        other.name, other.size, other.fd = self.name, self.size, os.dup(self.fd)
+        other._mmap = None
+        other.buf = memoryview(b"")
+        return other
+
     @property
     def closed(self) -> bool:
         return self._mmap is None

@@ -26,9 +26,11 @@ from dataclasses import dataclass
 from multiprocessing.connection import Connection
 from typing import Any, Protocol
 
-from .._core._errors import RtcfError
+from .._core._errors import ConfigurationError, RtcfError
 from .._core._executor import ABORT, CONTROL, STOP
 from .._core._faults import Fault, SafeStopOutcome
+from .._core._lane_names import MAIN_LANE
+from .._core._lanes import lane_of
 from .._core._lifecycle import (
     OUTCOME_RECORD_SIZE,
     OUTCOME_RING_RECORDS,
@@ -42,7 +44,7 @@ from .._core._log import LOG_RECORD_SIZE, LogLevel, LogRecord, PythonLoggingSink
 from .._core._params import ParameterStore
 from .._core._rings import Mailbox, Ring
 from .._core._runner import ComponentSpec, RunResult
-from .._core._settings import RunnerSettings
+from .._core._settings import RunnerSettings, lane_placement
 from .._core._timing import FIXED_COLUMNS, TimingAggregate, TimingSummary, ring_capacity, row_size
 from .._core._tunables import (
     LIFECYCLE,
@@ -55,6 +57,7 @@ from .._core._tunables import (
 )
 from ._doorbell import Doorbell, RungMailbox
 from ._heap import fill_numpy_cache
+from ._lanes import LaneLayout, abort_all, init_words, layout, reset_stop
 from ._port_channels import OUTPUT_RING_RECORDS, MappedPort, segment_size
 from ._recording import RecordedTopic, RecordingDrain, RecordSink
 from ._recording import segment_size as recording_segment_size
@@ -152,6 +155,15 @@ class WorkerRunner:
         # wakes a main thread that waits for requests while no loop runs (RequestQueue)
         self.wake_idle: Callable[[], None] | None = None
         self._owner = threading.get_ident()  # the thread of the control channel (start)
+        # lanes: this worker's lane; the main lane's runner starts a worker per other
+        # lane, routes each component's verbs to its lane, and runs them together
+        self.lane = MAIN_LANE
+        self._lanes: dict[str, WorkerRunner] = {}
+        self._lane_of: dict[str, str] = {}  # component -> lane (other than main)
+        self._lane_seg: Segment | None = None
+        self._lane_layout: LaneLayout | None = None
+        self._lane_runs = 0
+        self.lane_placement: dict[str, str] = {}  # lane -> where it runs, said once
 
     # -- process ---------------------------------------------------------------
     def start(self) -> WorkerRunner:
@@ -327,6 +339,8 @@ class WorkerRunner:
 
     def kill(self) -> None:
         """Kill the worker at once (SIGKILL): no hook runs any more."""
+        for worker in self._lanes.values():
+            worker.kill()
         proc = self.process
         if proc is not None and proc.poll() is None:
             proc.kill()
@@ -367,8 +381,9 @@ class WorkerRunner:
             where = f" after iteration {self._timing[2].last_iteration}"
         where += self._running_now()
         self.exit_reported = True
+        lane = f"lane {self.lane!r}: " if self.lane != MAIN_LANE or self._lanes else ""
         return WorkerDied(
-            f"runner {self.name!r}: the worker process (pid {self.pid}) {how} {when}{where}; "
+            f"runner {self.name!r}: {lane}the worker process (pid {self.pid}) {how} {when}{where}; "
             "the components' stop() and cleanup() did not run"
         )
 
@@ -409,6 +424,17 @@ class WorkerRunner:
 
     # -- the runner's verbs ------------------------------------------------------
     def load(self, spec: ComponentSpec, *, launcher: str = "") -> str:
+        lane = lane_of(spec.lane)
+        if lane != self.lane and self.lane == MAIN_LANE:  # another lane's worker loads it
+            worker = self._lane_worker(lane)
+            full = worker.load(spec, launcher=launcher)
+            with self._update_lock:
+                info = self.components[full] = worker.components[full]
+                self._lane_of[full] = lane
+            self.refresh_introspection()
+            if self.bridge is not None:
+                self.bridge.component_loaded(info, self)
+            return full
         if spec.cls is not None:
             # the worker imports the class by name, as an rt_launcher would ask for it
             spec = dataclasses.replace(
@@ -430,9 +456,21 @@ class WorkerRunner:
         for name, value in values.items():
             self.parameters.set(name, value)
         self.call("set_parameters", values)
+        for worker in self._lanes.values():
+            worker.call("set_parameters", values)
 
     def unload(self, name: str) -> None:
         full = name if name.startswith("/") else "/" + name
+        owner = self._owner_of(full)
+        if owner is not self:
+            owner.unload(full)
+            with self._update_lock:
+                self.components.pop(full, None)
+                self._lane_of.pop(full, None)
+            self.refresh_introspection()
+            if self.bridge is not None:
+                self.bridge.component_unloaded(full)
+            return
         self.call("unload", full)
         with self._update_lock:
             self.components.pop(full, None)
@@ -445,8 +483,19 @@ class WorkerRunner:
             self.bridge.component_unloaded(full)
 
     def refresh_introspection(self) -> dict[str, Any]:
+        if self._lanes:  # the order over every lane's components
+            try:
+                self._sync_lanes(mirror=False)
+            except RtcfError:
+                pass  # the introspection's "problem" says it
         data = dict(self.call("introspect"))
         data["runner"] = self.name
+        for worker in self._lanes.values():
+            more = worker.introspection
+            data["components"] = list(data.get("components", [])) + list(more["components"])
+            data["connections"] = _merge_connections(
+                data.get("connections", []), more.get("connections", [])
+            )
         with self._update_lock:
             self.introspection = data
         return data
@@ -474,6 +523,9 @@ class WorkerRunner:
 
     def set_parameter(self, component: str, name: str, value: Any) -> Any:
         """Validate a new value here, then hand it to the worker for the next iteration."""
+        owner = self._owner_of(component)
+        if owner is not self:
+            return owner.set_parameter(component, name, value)
         spec = self.tunable(component, name)
         value = spec.validate(value)
         with self._update_lock:
@@ -485,6 +537,10 @@ class WorkerRunner:
 
     def set_log_level(self, component: str, level: int | str) -> None:
         """Filter the component's records in the worker from the next iteration on."""
+        owner = self._owner_of(component)
+        if owner is not self:
+            owner.set_log_level(component, level)
+            return
         info = self._component(component)
         number = LogLevel[level.upper()] if isinstance(level, str) else int(level)
         with self._update_lock:
@@ -531,6 +587,9 @@ class WorkerRunner:
         periods) gives up with a refusal; the transition may still happen later (the
         listeners hear of it then).
         """
+        owner = self._owner_of(component)
+        if owner is not self:
+            return owner.change_state(component, transition, timeout)
         info = self._component(component)
         full = str(info["name"])
         if timeout is None:
@@ -562,7 +621,7 @@ class WorkerRunner:
     @property
     def transitions_pending(self) -> bool:
         """Whether a transition waits for the worker (the main thread should sync)."""
-        return bool(self._pending)
+        return bool(self._pending) or any(w._pending for w in self._lanes.values())
 
     @property
     def loop_running(self) -> bool:
@@ -571,6 +630,8 @@ class WorkerRunner:
     def sync(self) -> None:
         """Have the worker apply what waits for it, when no loop runs (main thread)."""
         self.call("sync")
+        for worker in self._lanes.values():
+            worker.call("sync")
 
     def _drain_outcomes(self) -> None:
         ring = self._outcome_ring
@@ -601,12 +662,21 @@ class WorkerRunner:
 
     def activate(self) -> None:
         self.call("activate")
+        for worker in self._lanes.values():
+            worker.call("activate")
 
     def deactivate(self) -> None:
         self.call("deactivate")
+        for worker in self._lanes.values():
+            worker.call("deactivate")
 
     def describe(self) -> dict[str, Any]:
-        return dict(self.call("describe"))
+        if self._lanes:
+            self._sync_lanes(mirror=False)
+        out = dict(self.call("describe"))
+        for worker in self._lanes.values():
+            out["components"] = list(out["components"]) + list(worker.components)
+        return out
 
     def request_stop(self, *, abort: bool = False) -> None:
         """End the loop after the current iteration (safe from a signal handler).
@@ -617,6 +687,9 @@ class WorkerRunner:
             if abort or self._ctl[CTL_STOP] != ABORT:
                 self._ctl[CTL_STOP] = ABORT if abort else STOP
             self._wake_clock()
+        if abort:  # (a normal stop reaches the other lanes through the main lane)
+            for worker in self._lanes.values():
+                worker.request_stop(abort=True)
 
     def request_control(self) -> None:
         """End the loop after the iteration so a request can be served (it resumes after)."""
@@ -638,6 +711,8 @@ class WorkerRunner:
         """Forget a stop request (the next run runs); a stop asked for earlier sticks."""
         if self._ctl is not None:
             self._ctl[CTL_STOP] = 0
+        for worker in self._lanes.values():
+            worker.clear_stop()
 
     @property
     def stop_requested(self) -> bool:
@@ -658,7 +733,19 @@ class WorkerRunner:
         record: RecordSink | None = None,
     ) -> RunResult:
         """Run the loop in the worker until ``iterations`` ran or :meth:`request_stop`;
-        with ``record``, every value of the topics it selects goes into it."""
+        with ``record``, every value of the topics it selects goes into it. With lanes,
+        every lane's worker runs it, together."""
+        if any(w.components for w in self._lanes.values()):
+            return self._run_lanes(iterations, trace, record)
+        return self._run_one(iterations, trace, record)
+
+    def _run_one(
+        self,
+        iterations: int | None,
+        trace: str | None,
+        record: RecordSink | None,
+        lane_run: int | None = None,
+    ) -> RunResult:
         prepared = self.call(
             "prepare", self.bridge is not None, record.pattern if record is not None else None
         )
@@ -691,6 +778,7 @@ class WorkerRunner:
             done = self.call(
                 "run", iterations, seg, trace, port_seg, ports, rec_seg, recorded or None,
                 None if self.simulated or self.settings.use_sim_time else ros_offset,
+                lane_run,
             )
         finally:
             self._timing = None
@@ -729,6 +817,8 @@ class WorkerRunner:
             aggregate=aggregate,
             faults=[Fault(**f) for f in done.get("faults", [])],
             safe_stops=[SafeStopOutcome(**o) for o in done.get("safe_stops", [])],
+            lanes={self.lane: {"handovers": done.get("handovers", {}),
+                               "missed": done.get("missed", 0)}},
         )
 
     def _port_channels(
@@ -758,6 +848,12 @@ class WorkerRunner:
 
     def shutdown(self) -> list[RtcfError]:
         """Stop and clean up every component in the worker, then let it exit."""
+        errors = []
+        for worker in self._lanes.values():
+            errors += worker.shutdown()
+        return errors + self._shutdown()
+
+    def _shutdown(self) -> list[RtcfError]:
         if self.conn is None or self.process is None or self.process.poll() is not None:
             return []
         errors = [error_from_dict(d) for d in self.call("shutdown")]
@@ -769,6 +865,11 @@ class WorkerRunner:
 
     def close(self) -> None:
         """Make sure the worker is gone and every segment is unmapped and removed."""
+        for worker in self._lanes.values():
+            worker.close()
+        if self._lane_seg is not None:
+            self._lane_seg.close()
+            self._lane_seg = None
         if self.bridge is not None:
             self.bridge.shutdown()
             self.bridge = None
@@ -815,6 +916,172 @@ class WorkerRunner:
     def _close_segment(self, seg: Segment) -> None:
         seg.close()
         self._segments.remove(seg)
+
+
+    # -- lanes ----------------------------------------------------------------------
+    def _owner_of(self, component: str) -> WorkerRunner:
+        full = component if component.startswith("/") else "/" + component
+        lane = self._lane_of.get(full)
+        return self._lanes[lane] if lane is not None else self
+
+    def _lane_worker(self, lane: str) -> WorkerRunner:
+        """The worker of lane ``lane``, started on first use, pinned where the lanes
+        parameter or the default placement says (and said once, in the log)."""
+        worker = self._lanes.get(lane)
+        if worker is not None:
+            return worker
+        if self.settings.use_sim_time:
+            raise ConfigurationError(
+                f"runner {self.name!r}: lane {lane!r}: lanes do not follow /clock yet "
+                "(use_sim_time); run without use_sim_time, or without lanes"
+            )
+        names = [*self._lanes, lane]
+        allowed = sorted(os.sched_getaffinity(0))
+        mask, priority, how = lane_placement(self.settings, names, allowed)[lane]
+        settings = dataclasses.replace(
+            self.settings, cpu_affinity_mask=mask, priority=priority, notes=[]
+        )
+        worker = WorkerRunner(
+            settings,
+            name=self.name,
+            parameters=self.parameters,
+            simulated=self.simulated,
+            log_level=self.log_level,
+            log_sink=self.log_sink,
+            log_capacity=self.log_capacity,
+        )
+        worker.lane = lane
+        worker.transition_listeners = self.transition_listeners
+        worker.start()
+        self._lanes[lane] = worker
+        self.lane_placement[lane] = f"{how}, priority {priority}"
+        self.log_sink(_note(20, f"lane {lane!r} runs in a worker process of its own "
+                                f"(pid {worker.pid}) on {how}, priority {priority}"))
+        return worker
+
+    def _running_lanes(self) -> dict[str, WorkerRunner]:
+        return {MAIN_LANE: self, **{n: w for n, w in self._lanes.items() if w.components}}
+
+    def _sync_lanes(self, *, mirror: bool) -> dict[str, dict[str, Any]]:
+        """Tell every lane's worker the other lanes' components (and, to trace them,
+        that the main lane receives every topic); answer what each hands over."""
+        workers = self._running_lanes()
+        facts = {lane: w.call("lane_facts") for lane, w in workers.items()}
+        topics = sorted(
+            {p.topic for f in facts.values() for n in f["nodes"] for p in n.outputs}
+        ) if mirror else []
+        replies = {}
+        for lane, worker in workers.items():
+            nodes = [n for other, f in facts.items() if other != lane for n in f["nodes"]]
+            members = [m for other, f in facts.items() if other != lane for m in f["members"]]
+            replies[lane] = worker.call("set_lanes", lane, nodes, members, topics)
+        return replies
+
+    def _bind_lanes(self, trace: bool) -> None:
+        """Lay the crossing topics out in one segment and hand it to every lane (a new
+        one only when the layout changed: a delayed value survives a pause)."""
+        replies = self._sync_lanes(mirror=trace)
+        sends: dict[str, tuple[str, int]] = {}
+        for reply in replies.values():
+            sends.update(reply["sends"])
+        lanes = replies[MAIN_LANE]["lanes"]
+        missing = [n for n in lanes if n not in replies]
+        if missing:  # a lane the plan knows but no worker runs: a bug
+            raise RtcfError(f"runner {self.name!r}: no worker runs lane(s) {missing}")
+        new = layout(lanes, sends)
+        workers = self._running_lanes()
+        if new != self._lane_layout or self._lane_seg is None:
+            if self._lane_seg is not None:
+                self._lane_seg.close()
+                self._segments.remove(self._lane_seg)
+            seg = self._lane_seg = self._segment(max(new.size, 4096), "rtcf-lanes")
+            init_words(seg.buf)
+            self._lane_layout = new
+            for lane in new.lanes:
+                workers[lane].call("bind_lanes", seg.handle(), new)
+        reset_stop(self._lane_seg.buf)
+
+    def _abort_lanes(self) -> None:
+        """A lane failed or died: the others stop at once, through their safe stops."""
+        if self._lane_seg is not None:
+            abort_all(self._lane_seg.buf)
+        self.request_stop(abort=True)
+
+    def _run_lanes(
+        self, iterations: int | None, trace: str | None, record: RecordSink | None
+    ) -> RunResult:
+        """Run every lane's worker together: the others in threads of their own (each
+        drains its worker), the main lane here; the first failure stops them all."""
+        self._bind_lanes(trace is not None)
+        self._lane_runs += 1
+        run = self._lane_runs
+        failures: list[tuple[float, BaseException]] = []
+        results: dict[str, RunResult] = {}
+
+        def lane(name: str, worker: WorkerRunner) -> None:
+            try:
+                # (the main lane's count ends every lane after the same iteration)
+                results[name] = worker._run_one(None, None, None, run)
+            except BaseException as exc:
+                failures.append((time.monotonic(), exc))
+                self._abort_lanes()
+
+        threads = [
+            threading.Thread(target=lane, args=(n, w), name=f"rtcf-lane-{n}", daemon=True)
+            for n, w in self._running_lanes().items()
+            if w is not self
+        ]
+        for t in threads:
+            t.start()
+        try:
+            main = self._run_one(iterations, trace, record, run)
+        except BaseException as exc:
+            failures.append((time.monotonic(), exc))
+            self._abort_lanes()
+            main = None
+        for t in threads:
+            while t.is_alive():
+                t.join(POLL_S)
+                if main is None:
+                    self.pump()
+        if failures:
+            raise min(failures, key=lambda f: f[0])[1]
+        assert main is not None
+        for name, result in results.items():
+            main.lanes[name] = {
+                "iterations": result.iterations,
+                "stopped_by": result.stopped_by,
+                "timing": result.timing,
+                "aggregate": result.aggregate,
+                "realtime": result.realtime,
+                "placement": self.lane_placement.get(name, ""),
+                **result.lanes.get(name, {}),
+            }
+            main.faults += result.faults
+            main.safe_stops += result.safe_stops
+            if result.stopped_by == "abort" and main.stopped_by != "abort":
+                main.stopped_by = "abort"
+        for name, info in main.lanes.items():
+            for label, counts in info.get("handovers", {}).items():
+                said = ", ".join(f"{n} {k.replace('_', ' ')}" for k, n in counts.items())
+                self.log_sink(_note(30, f"lane {name!r}: {label}: {said}"))
+            if info.get("missed"):
+                self.log_sink(_note(30, f"lane {name!r}: {info['missed']} releases skipped "
+                                        "after overrunning its window (LET overruns)"))
+        return main
+
+
+def _merge_connections(
+    first: list[dict[str, Any]], second: list[dict[str, Any]]
+) -> list[dict[str, Any]]:
+    """Two lanes' introspected connections as one list, by topic."""
+    out = {c["topic"]: dict(c, publishers=list(c["publishers"]),
+                            subscribers=list(c["subscribers"])) for c in first}
+    for c in second:
+        mine = out.setdefault(c["topic"], dict(c, publishers=[], subscribers=[]))
+        mine["publishers"] += c["publishers"]
+        mine["subscribers"] += c["subscribers"]
+    return [out[t] for t in sorted(out)]
 
 
 class _PendingTransition:

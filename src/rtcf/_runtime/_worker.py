@@ -30,6 +30,8 @@ from typing import Any
 from .._core._clock import Clock, MiddlewareClock, MonotonicClock, SimClock
 from .._core._errors import ComponentError, ConfigurationError, GraphError, LaunchError, RtcfError
 from .._core._executor import ABORT, StopFlag
+from .._core._lane_names import MAIN_LANE
+from .._core._lanes import LET_OUT, SEND
 from .._core._lifecycle import REFUSED, encode_outcome
 from .._core._log import LogWriter
 from .._core._params import ParameterStore
@@ -39,6 +41,7 @@ from .._core._settings import RunnerSettings
 from .._core._trace import Trace
 from .._core._tunables import LIFECYCLE, UPDATE_RECORD_SIZE, UPDATE_RING_RECORDS, UpdateReader
 from ._doorbell import Doorbell
+from ._lanes import Aborted, LaneLayout, LaneLink, value_size
 from ._port_channels import MappedPort, WorkerPorts, mapped_ports
 from ._realtime import FrozenGC, RealtimeReport, apply_realtime
 from ._recording import RecordedTopic, WorkerRecording, recorded_topics
@@ -107,6 +110,8 @@ class Worker:
         self.clock_doorbell: Doorbell | None = None  # the supervisor rings: /clock
         self._in_loop = False  # hooks in the loop are not announced over the socket
         self._parameters_set: list[tuple[str, Any]] = []  # params.set() while it ran
+        self.link: LaneLink | None = None  # lanes in processes of their own
+        self._lane_seg: Segment | None = None
 
     # -- the command loop ------------------------------------------------------
     def serve(self) -> int:
@@ -122,6 +127,9 @@ class Worker:
             "set_parameters": self.set_parameters,
             "sync": self.sync,
             "prepare": self.prepare,
+            "lane_facts": self.lane_facts,
+            "set_lanes": self.set_lanes,
+            "bind_lanes": self.bind_lanes,
             "run": self.run,
             "shutdown": self.shutdown,
         }
@@ -306,6 +314,49 @@ class Worker:
             "lanes": [(n, lane.every, list(lane.members)) for n, lane in runner.lanes().items()],
         }
 
+    # -- lanes ---------------------------------------------------------------------
+    def lane_facts(self) -> dict[str, Any]:
+        """What the other lanes must know of this lane's components."""
+        runner = self._runner()
+        return {"nodes": runner.graph_nodes(), "members": runner.members()}
+
+    def set_lanes(
+        self, lane: str, nodes: list[Any], members: list[Any], mirror: list[str]
+    ) -> dict[str, Any]:
+        """Run lane ``lane`` of every lane's components (the others' nodes and members
+        are given); answer the lanes and the topics this lane hands over, with the
+        bytes one value may take."""
+        runner = self._runner()
+        runner.lane = lane
+        runner.set_foreign(nodes, members, mirror)
+        lanes = runner.lanes()
+        outputs = {p.topic: p for p in _all_outputs(runner)}
+        sends: dict[str, tuple[str, int]] = {}
+        for step in runner.lane_plan():
+            if step.kind in (SEND, LET_OUT):
+                sends[step.name] = (lane, value_size(outputs[step.name], lane))
+        return {"lanes": lanes, "sends": sends}
+
+    def bind_lanes(self, seg: Segment, layout: LaneLayout) -> None:
+        """The run's lanes segment: the handovers of the next compile use it."""
+        runner = self._runner()
+        self._release_lanes()
+        self._lane_seg = seg
+        link = LaneLink(seg.buf, layout, runner.lane or MAIN_LANE, simulated=self.simulated,
+                        period_ns=runner.state.period_ns)
+        link.bound(runner.state, self._stop(), runner.clock.now_ns)
+        self.link = link
+        runner.handovers = link.bind
+        runner.set_foreign(runner._foreign_nodes, runner._foreign_members, runner._mirror)
+
+    def _release_lanes(self) -> None:
+        if self.link is not None:
+            self.link.release()
+            self.link = None
+        if self._lane_seg is not None:
+            self._lane_seg.close()
+            self._lane_seg = None
+
     def prepare(self, bridged: bool, record: str | None = None) -> dict[str, Any]:
         """Compile the schedule and list the mapped ports and the recorded topics (a
         full-match regex, or None); the supervisor sizes their channels."""
@@ -315,6 +366,13 @@ class Worker:
         if record is not None:
             fed = runner.mapped_ports()[1] if bridged else []
             recorded = recorded_topics(_all_outputs(runner), fed, record)
+        if self.link is not None and runner.lane != MAIN_LANE and (ports or recorded):
+            what = "mapped to the middleware" if ports else "recorded"
+            topic = (ports or recorded)[0].topic
+            raise ConfigurationError(
+                f"topic {topic!r} is {what}, but it is in lane {runner.lane!r}: for now only "
+                "the main lane's topics are; move its producer and readers to the main lane"
+            )
         return {"schedule": runner.schedule, "ports": ports, "recorded": recorded}
 
     def run(
@@ -327,12 +385,15 @@ class Worker:
         rec_seg: Segment | None = None,
         recorded: list[RecordedTopic] | None = None,
         ros_offset_ns: int | None = None,
+        lane_run: int | None = None,
     ) -> dict[str, Any]:
         runner = self._runner()
+        link = self.link if lane_run is not None else None
         ring = Ring.open(seg.buf)
         trace = None
-        if trace_path:  # a LET lane's outputs as the others see them
-            trace = Trace(runner.components, runner.state, runner.visible_slots())
+        if trace_path:  # a LET lane's outputs as the others see them; the other lanes'
+            foreign = runner.foreign_slots() if link is not None else None
+            trace = Trace(runner.components, runner.state, runner.visible_slots(), foreign)
         bridge = None
         if port_seg is not None and ports:
             bridge = WorkerPorts(
@@ -346,6 +407,8 @@ class Worker:
                 wait=self.simulated,
             )
         feeders: list[Callable[[], object]] = [self._updates()]
+        if link is not None:
+            feeders.insert(0, link.feeder)
         if bridge is not None:
             feeders += bridge.feeders
         watch = None
@@ -361,16 +424,32 @@ class Worker:
                 runner.start_components()  # before the loop (the outcome ring tells)
                 self._send("event", "started", self.realtime.to_dict())
                 self._in_loop = True
+                if link is not None:
+                    assert lane_run is not None
+                    try:
+                        link.stopped_here = False
+                        link.begin(lane_run, *runner.time_grid, runner.resume_at, iterations)
+                    except Aborted:  # stopped before every lane was ready
+                        iterations = 0
+                after: Callable[[], object] | None = _after_iteration(trace, bridge)
+                if link is not None:
+                    after = _chain(after, link.after)
                 result = runner.run(
                     iterations,
                     timing_ring=ring,
-                    on_iteration=_after_iteration(trace, bridge),
+                    on_iteration=after,
                     feeders=feeders,
                     # the supervisor's, with which it stamps the recording's timing rows
                     ros_offset_ns=ros_offset_ns,
                 )
             realtime = self.realtime.to_dict()
+        except BaseException:
+            if link is not None:
+                link.failed()  # the other lanes stop too, through their safe stops
+            raise
         finally:
+            if link is not None and link.stopped_here:  # not a stop asked of this run
+                self._stop().clear()
             self._in_loop = False
             for name, value in self._parameters_set:
                 self._send("event", "parameter_set", (name, value))
@@ -411,6 +490,8 @@ class Worker:
             "faults": [f.to_dict() for f in result.faults],
             "safe_stops": [vars(o) for o in result.safe_stops],
             "heartbeat_lost": bool(watch is not None and watch.fired),
+            "handovers": link.counts() if link is not None else {},
+            "missed": runner.missed_releases,
         }
 
     def _stop(self) -> StopFlag:
@@ -432,6 +513,7 @@ class Worker:
         return errors
 
     def close(self) -> None:
+        self._release_lanes()
         if self.log_writer is not None:
             self.log_writer.release()
         if self._update_ring is not None:
@@ -477,6 +559,19 @@ class HeartbeatWatch:
         if self.left == 0:
             self.fired = True
             self.stop.set(ABORT)
+
+
+def _chain(
+    first: Callable[[], object] | None, second: Callable[[], object]
+) -> Callable[[], object]:
+    if first is None:
+        return second
+
+    def both() -> None:
+        first()
+        second()
+
+    return both
 
 
 def _after_iteration(
