@@ -5,6 +5,7 @@ Load them from a launch file with ``args="rtcf_examples ClassName"``.
 
 from ._components import (
     BareMinimum,
+    Busy,
     DcMotor,
     FirstOrderPlant,
     Identity,
@@ -19,6 +20,7 @@ from ._components import (
 
 __all__ = [
     "BareMinimum",
+    "Busy",
     "DcMotor",
     "FirstOrderPlant",
     "Identity",

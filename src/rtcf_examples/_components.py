@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import importlib
 import math
+import time
 
 import rtcf
 
@@ -290,3 +291,25 @@ class StepSupervisor(rtcf.Component):
         elif t - self.off_since > self.hold_s:
             self.log.warning("tracking error %.3f for %.2f s", error, t - self.off_since)
             self.off_since = t
+
+
+class Busy(rtcf.Component):
+    """Stands in for a heavy controller (an MPC, a planner): spins ``~cost_us`` µs of CPU
+    per update, then writes ``in_port`` + 1 to ``out_port``.
+
+    The lanes example and ``benchmarks/lanes.py`` put it beside a fast loop, in the
+    main lane (it then stalls the loop) or in a lane of its own.
+    """
+
+    def configure(self) -> None:
+        self.cost_ns = int(float(self.params.get("~cost_us", 100.0)) * 1000)
+        self.port_in = self.add_input("in_port", float)
+        self.port_out = self.add_output("out_port", float)
+        self._clock = time.thread_time_ns  # CPU time: a preemption does not shorten it
+
+    def update(self) -> None:
+        end = self._clock() + self.cost_ns
+        while self._clock() < end:
+            pass
+        value = self.port_in.read()
+        self.port_out.write((value or 0.0) + 1.0)

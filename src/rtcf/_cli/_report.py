@@ -56,6 +56,19 @@ def format_summary(result: RunResult, settings: RunnerSettings, wall_s: float) -
     note = t.coverage_note()
     if note:
         lines.append(f"  ({note})")
+    for name, lane in result.lanes.items():
+        timing = lane.get("timing")
+        if timing is None or not timing.calc_us:
+            continue
+        lines.append(
+            f"  lane {name} ({lane.get('placement', '')}): {timing.iterations} "
+            f"{'releases' if lane.get('every', 1) > 1 else 'iterations'}, "
+            f"overruns: {timing.overruns}"
+        )
+        lines.append(row("  wake-up jitter", timing.jitter_us))
+        lines.append(row("  calculation", timing.calc_us))
+        for comp, stats in timing.components_us.items():
+            lines.append(row(f"    {comp}", stats))
     return "\n".join(lines)
 
 
@@ -95,7 +108,45 @@ def timing_document(result: RunResult, settings: RunnerSettings, wall_s: float) 
     }
     if result.aggregate is not None and not result.simulated:
         doc["histograms_ns"] = result.aggregate.histograms()
+    if len(result.lanes) > 1:
+        doc["lanes"] = {
+            name: lane_document(lane, settings, keep) for name, lane in result.lanes.items()
+        }
     return doc
+
+
+def lane_document(
+    lane: dict[str, Any], settings: RunnerSettings, keep: tuple[str, ...]
+) -> dict[str, Any]:
+    """One lane in timing.json: where it ran, its own timing, its handovers; a LET
+    lane's margin to its deadline (its window less its calculation time)."""
+    out: dict[str, Any] = {
+        "every": lane.get("every", 1),
+        "placement": lane.get("placement", "the runner's (main lane)"),
+        "handovers": lane.get("handovers", {}),
+        "releases_skipped": lane.get("missed", 0),
+    }
+    timing = lane.get("timing")
+    if timing is not None:
+        out.update(
+            iterations=timing.iterations,
+            overruns=timing.overruns,
+            jitter_us={k: timing.jitter_us.get(k) for k in keep} if timing.jitter_us else {},
+            calc_us={k: timing.calc_us.get(k) for k in keep} if timing.calc_us else {},
+            components={
+                name: {"calc_us": {k: stats.get(k) for k in keep}}
+                for name, stats in timing.components_us.items()
+            },
+        )
+        every = out["every"]
+        if every > 1 and timing.calc_us:
+            window_us = every * 1e6 / settings.frequency
+            out["let_window_us"] = window_us
+            out["let_margin_us"] = {
+                k: window_us - timing.calc_us[k] for k in ("p50", "p99", "max")
+                if timing.calc_us.get(k) is not None
+            }
+    return out
 
 
 def machine() -> dict[str, Any]:

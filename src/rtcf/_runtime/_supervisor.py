@@ -955,7 +955,7 @@ class WorkerRunner:
         worker.start()
         self._lanes[lane] = worker
         self.lane_placement[lane] = f"{how}, priority {priority}"
-        self.log_sink(_note(20, f"lane {lane!r} runs in a worker process of its own "
+        self.log_sink(_note(10, f"lane {lane!r} runs in a worker process of its own "
                                 f"(pid {worker.pid}) on {how}, priority {priority}"))
         return worker
 
@@ -1047,8 +1047,12 @@ class WorkerRunner:
         if failures:
             raise min(failures, key=lambda f: f[0])[1]
         assert main is not None
+        kinds = self._lane_layout.kinds if self._lane_layout is not None else ()
+        every = dict(zip(self._lane_layout.lanes, (k[0] for k in kinds), strict=True)) \
+            if self._lane_layout is not None else {}
         for name, result in results.items():
             main.lanes[name] = {
+                "every": every.get(name, 1),
                 "iterations": result.iterations,
                 "stopped_by": result.stopped_by,
                 "timing": result.timing,
