@@ -715,6 +715,17 @@ class Runner:
                         f"not in its own lane {lanes[name]!r}: a fallback writes the outputs "
                         "of the component it stands in for, so put both in one lane"
                     )
+            written: dict[str, set[str]] = {}
+            for node in graph.nodes:
+                for port in node.outputs:
+                    written.setdefault(port.topic, set()).add(lanes.get(node.name, MAIN_LANE))
+            for topic, where in sorted(written.items()):
+                if len(where) > 1:
+                    raise ConfigurationError(
+                        f"topic {topic!r} is written by components in lanes "
+                        f"{', '.join(sorted(where))}: a topic crosses lanes from one lane "
+                        "only; remap the outputs to distinct topics, or put them in one lane"
+                    )
             if len(kinds) > 1 and self.settings.wait_policy != "absolute":
                 raise ConfigurationError(
                     f"runner {self.name!r}: wait_policy {self.settings.wait_policy!r} does not "

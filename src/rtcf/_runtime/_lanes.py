@@ -114,11 +114,17 @@ def value_size(port: OutputPort[Any], lane: str, readers: str = "another lane") 
     return codec.max_size
 
 
-def init_words(buf: memoryview) -> None:
-    """A fresh segment: no lane stops yet."""
-    words = buf[: 8 * HEADER_WORDS].cast("q")
+EMPTY = -(2**62)  # the stamp of an entry never written (below every version)
+
+
+def init_words(buf: memoryview, lanes: LaneLayout) -> None:
+    """A fresh segment: no lane stops yet, no entry holds a version."""
+    words = buf[: lanes.size].cast("q")
     words[W_STOP_AT] = NEVER
     words[W_FIRST] = NEVER
+    for c in lanes.channels:
+        for k in range(DEPTH):
+            words[(c.offset + k * c.entry_bytes) // 8] = EMPTY
     words.release()
 
 

@@ -954,7 +954,7 @@ class WorkerRunner:
         worker.transition_listeners = self.transition_listeners
         worker.start()
         self._lanes[lane] = worker
-        self.lane_placement[lane] = f"{how}, priority {priority}"
+        self.lane_placement[lane] = f"pid {worker.pid}, {how}, priority {priority}"
         self.log_sink(_note(10, f"lane {lane!r} runs in a worker process of its own "
                                 f"(pid {worker.pid}) on {how}, priority {priority}"))
         return worker
@@ -995,7 +995,7 @@ class WorkerRunner:
                 self._lane_seg.close()
                 self._segments.remove(self._lane_seg)
             seg = self._lane_seg = self._segment(max(new.size, 4096), "rtcf-lanes")
-            init_words(seg.buf)
+            init_words(seg.buf, new)
             self._lane_layout = new
             for lane in new.lanes:
                 workers[lane].call("bind_lanes", seg.handle(), new)

@@ -1,0 +1,198 @@
+"""Lanes in worker processes of their own: the values of the sequential run, bit for bit.
+
+Each test runs a shipped example twice with ``rtcf launch --trace``: as it is (one
+sequential loop) and with some components moved to other lanes (one worker process
+each), and compares every topic's value in every iteration. A lane on logical
+execution time gives the same trace under ``--sim`` and in real time. A lane that
+fails or dies ends every lane, with one line naming it.
+"""
+
+from __future__ import annotations
+
+import csv
+import os
+import re
+import signal
+import time
+from importlib import resources
+from pathlib import Path
+
+import pytest
+
+from .._proc import read_rest, rtcf_shm_names, wait_for_match
+from .conftest import run_rtcf
+from .test_worker import start, write_launch
+
+pytestmark = pytest.mark.integration
+
+EXAMPLES = Path(str(resources.files("rtcf_examples") / "launch"))
+
+
+def with_lanes(text: str, lanes: dict[str, str], **replace: str) -> str:
+    """The launch text with a ``lane`` parameter in the named nodes."""
+    for node, lane in lanes.items():
+        text, n = re.subn(
+            rf'(<node name="{node}"[^>]*>)', rf'\1<param name="lane" value="{lane}"/>', text
+        )
+        assert n == 1, node
+    for old, new in replace.items():
+        assert old in text
+        text = text.replace(old, new)
+    return text
+
+
+def trace(tmp_path: Path, name: str, text: str, *args: str) -> list[dict[str, str]]:
+    launch = tmp_path / f"{name}.launch"
+    launch.write_text(text)
+    out = tmp_path / f"{name}.csv"
+    done = run_rtcf("launch", launch, *args, "--trace", out)
+    assert done.returncode == 0, done.stderr
+    with open(out) as f:
+        return list(csv.DictReader(f))
+
+
+def assert_same(reference: list[dict[str, str]], lanes: list[dict[str, str]]) -> None:
+    assert len(lanes) == len(reference) > 10
+    assert list(lanes[0]) == list(reference[0])  # every topic, of every lane
+    for a, b in zip(reference, lanes, strict=True):
+        assert a == b, (a, b)
+
+
+FIG1 = (EXAMPLES / "paper_evaluation.launch").read_text()
+# G2, the ROS node outside the runner in the paper, as a source inside it: values move
+SOURCE = """  <node name="G2" pkg="rtcf" type="rt_launcher" args="rtcf_examples Sine">
+    <remap from="out" to="/G2_R2"/><param name="offset" value="0.5"/>
+    <param name="amplitude" value="0.25"/><param name="frequency_hz" value="3"/>
+  </node>
+"""
+
+
+@pytest.mark.parametrize("clock", ["--sim", "real time"])
+def test_fig1_in_two_lanes_gives_the_sequential_values(tmp_path, clock):
+    # in real time at 200 Hz: a lane waits up to a period (5 ms) for a value
+    text = FIG1.replace('"frequency">2000.0', '"frequency">200.0').replace(
+        '"num_components_expected">5', '"num_components_expected">6'
+    ).replace("</launch>", SOURCE + "</launch>")
+    args = ["--duration", "1"] + ([clock] if clock == "--sim" else [])
+    reference = trace(tmp_path, "seq", text, *args)
+    split = trace(tmp_path, "lanes", with_lanes(text, {"R2": "right", "R3": "right"}), *args)
+    assert_same(reference, split)
+    assert any(float(r["/R3_G2H1"]) != 0.0 for r in split)  # values that moved
+
+
+def test_the_complex_architecture_in_three_lanes_gives_the_sequential_values(tmp_path):
+    # its second outputs all write /out2, which nothing reads: one topic each, so the
+    # lanes may run them (a topic written in several lanes is refused, see below)
+    text = re.sub(
+        r'(<node name="(node_\d+)"[^>]*>)', r'\1<remap from="out2" to="/\2/out2"/>',
+        (EXAMPLES / "complex_architecture.launch").read_text(),
+    )
+    lanes = {"node_4": "b", "node_5": "b", "node_6": "b", "node_8": "c", "node_9": "c",
+             "node_10": "c"}
+    reference = trace(tmp_path, "seq", text, "--sim", "--duration", "40")
+    split = trace(tmp_path, "lanes", with_lanes(text, lanes), "--sim", "--duration", "40")
+    assert_same(reference, split)
+
+
+def test_a_topic_written_in_two_lanes_is_refused_naming_it(tmp_path):
+    text = with_lanes((EXAMPLES / "complex_architecture.launch").read_text(), {"node_4": "b"})
+    launch = tmp_path / "two.launch"
+    launch.write_text(text)
+    done = run_rtcf("launch", launch, "--sim", "--duration", "3")
+    assert done.returncode == 1
+    errors = [line for line in done.stderr.splitlines() if line.startswith("rtcf: error:")]
+    assert len(errors) == 1, done.stderr
+    assert "topic '/out2' is written by components in lanes b, main" in errors[0]
+
+
+def test_the_cascade_with_its_rates_in_two_lanes_gives_the_sequential_values(tmp_path):
+    text = (EXAMPLES / "cascade.launch").read_text()
+    reference = trace(tmp_path, "seq", text, "--sim", "--duration", "0.5")
+    split = trace(tmp_path, "lanes", with_lanes(text, {"velocity_controller": "inner"}),
+                  "--sim", "--duration", "0.5")
+    assert_same(reference, split)
+
+
+LET = """<launch>
+  <node name="rt_runner" pkg="rtcf" type="rt_runner">
+    <rosparam param="mode">"wait_for_components"</rosparam>
+    <rosparam param="num_components_expected">3</rosparam>
+    <rosparam param="frequency">200.0</rosparam>
+  </node>
+  <node name="src" pkg="rtcf" type="rt_launcher" args="rtcf_examples Sine">
+    <remap from="out" to="/x"/>
+  </node>
+  <node name="mpc" pkg="rtcf" type="rt_launcher" args="rtcf_examples Busy">
+    <remap from="in_port" to="/x"/><remap from="out_port" to="/u"/>
+    <param name="every" value="4"/><param name="phase" value="1"/>
+    <param name="cost_us" value="9000"/>
+    <param name="lane" value="mpc"/>
+  </node>
+  <node name="sink" pkg="rtcf" type="rt_launcher" args="rtcf_examples Identity">
+    <remap from="in_port" to="/u"/><remap from="out_port" to="/y"/>
+  </node>
+</launch>
+"""
+
+
+def test_a_let_lane_gives_the_same_values_under_sim_and_in_real_time(tmp_path):
+    # 9 ms of CPU every 4 periods of 5 ms: longer than a period, shorter than its window
+    sim = trace(tmp_path, "sim", LET, "--sim", "--duration", "1")
+    real = trace(tmp_path, "real", LET, "--duration", "1")
+    assert_same(sim, real)
+    x = [float(r["/x"]) for r in sim]
+    for k, row in enumerate(sim):  # released at 1, 5, 9, ...: /x of r - 1, seen at r + 4
+        releases = list(range(1, k - 3, 4))
+        want = x[releases[-1] - 1] + 1.0 if releases else None
+        assert (float(row["/u"]) if row["/u"] else None) == want, k
+
+
+FAULT = """
+  <node name="hw" pkg="rtcf" type="rt_launcher" args="rtcf_fault_components SafeHardware -f">
+    <param name="path" value="{path}"/>
+  </node>
+  <node name="ctrl" pkg="rtcf" type="rt_launcher" args="rtcf_fault_components Faulty">
+    <param name="at" value="20"/><param name="lane" value="control"/>
+  </node>"""
+
+
+def test_a_component_that_raises_in_a_lane_stops_every_lane_through_safe_stop(tmp_path):
+    marker = tmp_path / "torque"
+    marker.write_text("1")
+    path = write_launch(tmp_path, FAULT.format(path=marker))
+    proc = start("launch", path, "--duration", "5")
+    _out, err = read_rest(proc, 60)
+    assert proc.returncode == 1, err
+    errors = [line for line in err.splitlines() if line.startswith("rtcf: error:")]
+    assert len(errors) == 1, err
+    assert "/ctrl" in errors[0] and "ZeroDivisionError: boom at iteration 20" in errors[0]
+    assert marker.read_text() == "0"  # the main lane's hardware interface stopped safely
+    assert rtcf_shm_names() == []
+
+
+HANG = """
+  <node name="hw" pkg="rtcf" type="rt_launcher" args="rtcf_fault_components SafeHardware -f">
+    <param name="path" value="{path}"/>
+  </node>
+  <node name="slow" pkg="rtcf" type="rt_launcher" args="rtcf_fault_components Busy">
+    <param name="ms" value="0.1"/><param name="hang_at" value="40"/>
+    <param name="lane" value="planner"/>
+  </node>"""
+
+
+def test_a_lane_process_that_dies_ends_the_run_with_one_line_naming_it(tmp_path):
+    marker = tmp_path / "torque"
+    marker.write_text("1")
+    path = write_launch(tmp_path, HANG.format(path=marker))
+    proc = start("launch", path, "--duration", "30", "--debug")
+    found = wait_for_match(proc, r"planner \(lock step; pid (\d+), ", 30)
+    time.sleep(1.0)  # /slow hangs in its update from iteration 40 (0.2 s)
+    os.kill(int(found.group(1)), signal.SIGKILL)
+    _out, err = read_rest(proc, 60)
+    assert proc.returncode == 1, err
+    errors = [line for line in err.splitlines() if line.startswith("rtcf: error:")]
+    assert len(errors) == 1, err
+    assert "lane 'planner'" in errors[0] and "killed by SIGKILL" in errors[0], errors
+    assert "/slow's update() was running" in errors[0], errors
+    assert marker.read_text() == "0"  # the main lane stopped through its safe stops
+    assert rtcf_shm_names() == []
