@@ -191,6 +191,7 @@ class Runner:
         self._foreign_nodes: list[GraphNode] = []
         self._foreign_members: list[Member] = []
         self._mirror: set[str] = set()  # topics the main lane receives for a trace
+        self._shared_topics: set[str] = set()  # written in several lanes
         # a handover step, bound to the port whose slot it fills or reads
         self.handovers: Callable[[Step, OutputPort[Any]], Callable[[], object]] | None = None
         self._stubs: dict[str, OutputPort[Any]] = {}  # foreign producers' topics
@@ -719,13 +720,9 @@ class Runner:
             for node in graph.nodes:
                 for port in node.outputs:
                     written.setdefault(port.topic, set()).add(lanes.get(node.name, MAIN_LANE))
-            for topic, where in sorted(written.items()):
-                if len(where) > 1:
-                    raise ConfigurationError(
-                        f"topic {topic!r} is written by components in lanes "
-                        f"{', '.join(sorted(where))}: a topic crosses lanes from one lane "
-                        "only; remap the outputs to distinct topics, or put them in one lane"
-                    )
+            # (several producers of a topic someone reads are refused by the graph; one
+            # written in several lanes that no one reads is not traced)
+            self._shared_topics = {t for t, where in written.items() if len(where) > 1}
             if len(kinds) > 1 and self.settings.wait_policy != "absolute":
                 raise ConfigurationError(
                     f"runner {self.name!r}: wait_policy {self.settings.wait_policy!r} does not "
@@ -746,7 +743,10 @@ class Runner:
         producers = {
             p.topic: n.name for n in self.graph_nodes() + self._foreign_nodes for p in n.outputs
         }
-        mirror = {t: producers[t] for t in sorted(self._mirror) if t in producers}
+        mirror = {  # (a topic written in several lanes that no one reads: not traced)
+            t: producers[t] for t in sorted(self._mirror)
+            if t in producers and t not in self._shared_topics
+        }
         return lane_steps(
             self.lane or MAIN_LANE, lanes, members, self.graph.order, connections, mirror
         )
