@@ -181,11 +181,12 @@ def main() -> int:
     speedup = worst("one", ("calc_us",), "p50") / max(
         worst("two", ("calc_us",), "p50"), worst("two", ("lanes", "right", "calc_us"), "p50")
     )
+    met = "met" if share <= TARGET_OVERRUNS else "NOT met"
     summary = (
         f"(a) the longer lane's calc p50 is {speedup:.2f}x shorter than one lane's; one "
         f"handover costs {ns['send']:.0f} ns to send and {ns['receive']:.0f} ns to receive "
         f"(a float, in-process tight loop). (b) overruns {100 * share:.2f} % with LET "
-        f"(target ≤ {100 * TARGET_OVERRUNS:.0f} %: {'met' if share <= TARGET_OVERRUNS else 'NOT met'})"
+        f"(target ≤ {100 * TARGET_OVERRUNS:.0f} %: {met})"
         f", against {100.0 * overruns['seq'] / max(1, iterations['seq']):.1f} % sequentially"
     )
     print(f"machine: {c.machine_line(machine)}")
