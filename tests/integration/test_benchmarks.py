@@ -19,6 +19,7 @@ ROOT = Path(__file__).resolve().parents[2]
         ("overhead", "ratio rtcf / plain"),
         ("scaling", "| 1000 "),
         ("channels", "| mailbox try_read_into "),
+        ("lanes", "| LET lane "),
     ],
 )
 def test_benchmark_runs_quick_and_writes_its_results(name, printed):
