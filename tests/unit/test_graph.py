@@ -267,3 +267,28 @@ def test_mermaid_contains_every_edge_and_dots_ignored_ones() -> None:
     assert f'{ids["/b"]} -.->|"/back"| {ids["/a"]}' in mm
     assert mm.count("-.->") == 1
     assert mm.count("-->") == 2
+
+
+def _laned_graph():
+    a = node("/a", outputs={"/x": float})
+    b = node("/b", inputs={"/x": float}, outputs={"/y": float})
+    c = node("/c", inputs={"/y": float})
+    b.lane = "arm"
+    return build_graph([a, b, c])
+
+
+def test_dot_draws_each_lane_as_a_cluster_and_crossing_edges_bold() -> None:
+    dot = to_dot(_laned_graph())
+    assert 'subgraph "cluster_main" {' in dot and 'subgraph "cluster_arm" {' in dot
+    arm = dot.split('subgraph "cluster_arm" {')[1].split("}")[0]
+    assert '"/b"' in arm and '"/a"' not in arm
+    assert '"/a" -> "/b" [label="/x", penwidth=2];' in dot
+    assert '"/b" -> "/c" [label="/y", penwidth=2];' in dot
+    assert "cluster" not in to_dot(_drawn_graph())  # one lane: no clusters
+
+
+def test_mermaid_draws_each_lane_as_a_subgraph() -> None:
+    mm = to_mermaid(_laned_graph())
+    assert '  subgraph lane_arm["lane arm"]' in mm and '  subgraph lane_main["lane main"]' in mm
+    arm = mm.split('subgraph lane_arm["lane arm"]')[1].split("  end")[0]
+    assert "/b<br/>" in arm and "/a<br/>" not in arm

@@ -216,16 +216,28 @@ def _type_name(t: type[Any]) -> str:
 
 def to_dot(graph: Graph) -> str:
     """Graphviz DOT: components as boxes, connections labelled with their topic;
-    edges left out of the ordering are dashed."""
+    edges left out of the ordering are dashed. With lanes, each lane is a cluster and
+    the edges that cross lanes are bold."""
     rank = {n: i for i, n in enumerate(graph.order)}
     lines = ["digraph rtcf {", "  rankdir=LR;", '  node [shape=box, fontname="Helvetica"];']
-    for node in sorted(graph.nodes, key=lambda n: rank.get(n.name, 0)):
-        label = f"{node.name}\\n{node.label} (#{rank[node.name] + 1})"
-        if node.is_first:
-            label += "\\nis_first"
-        lines.append(f'  "{node.name}" [label="{label}"];')
+    lanes = _lanes(graph)
+    for lane, nodes in lanes.items():
+        indent = "  "
+        if len(lanes) > 1:
+            lines += [f'  subgraph "cluster_{lane}" {{', f'    label="lane {lane}";']
+            indent = "    "
+        for node in sorted(nodes, key=lambda n: rank.get(n.name, 0)):
+            label = f"{node.name}\\n{node.label} (#{rank[node.name] + 1})"
+            if node.is_first:
+                label += "\\nis_first"
+            lines.append(f'{indent}"{node.name}" [label="{label}"];')
+        if len(lanes) > 1:
+            lines.append("  }")
+    lane_of = {n.name: n.lane for n in graph.nodes}
     for e in graph.edges:
         style = ", style=dashed, constraint=false" if not e.orders else ""
+        if lane_of.get(e.producer.component) != lane_of.get(e.consumer.component):
+            style += ", penwidth=2"
         lines.append(
             f'  "{e.producer.component}" -> "{e.consumer.component}" [label="{e.topic}"{style}];'
         )
@@ -233,16 +245,33 @@ def to_dot(graph: Graph) -> str:
     return "\n".join(lines) + "\n"
 
 
+def _lanes(graph: Graph) -> dict[str, list[GraphNode]]:
+    """The nodes by lane, the main lane first."""
+    out: dict[str, list[GraphNode]] = {}
+    for node in sorted(graph.nodes, key=lambda n: (n.lane != "main", n.lane)):
+        out.setdefault(node.lane, []).append(node)
+    return out
+
+
 def to_mermaid(graph: Graph) -> str:
     """Mermaid flowchart; edges left out of the ordering are dotted."""
     ids = {n.name: f"c{i}" for i, n in enumerate(graph.nodes)}
     rank = {n: i for i, n in enumerate(graph.order)}
     lines = ["flowchart LR"]
-    for node in graph.nodes:
-        extra = " is_first" if node.is_first else ""
-        lines.append(
-            f'  {ids[node.name]}["{node.name}<br/>{node.label} #{rank[node.name] + 1}{extra}"]'
-        )
+    lanes = _lanes(graph)
+    for lane, nodes in lanes.items():
+        indent = "  "
+        if len(lanes) > 1:
+            lines.append(f'  subgraph lane_{lane}["lane {lane}"]')
+            indent = "    "
+        for node in (n for n in graph.nodes if n in nodes):
+            extra = " is_first" if node.is_first else ""
+            lines.append(
+                f'{indent}{ids[node.name]}["{node.name}<br/>{node.label} '
+                f'#{rank[node.name] + 1}{extra}"]'
+            )
+        if len(lanes) > 1:
+            lines.append("  end")
     for e in graph.edges:
         arrow = "-.->" if not e.orders else "-->"
         lines.append(
