@@ -659,6 +659,10 @@ class Runner:
         self._mirror = set(mirror)
         self._invalidate()
 
+    def recompile(self) -> None:
+        """Compile the plan again before the next run (new handovers were bound)."""
+        self._invalidate()
+
     def foreign_slots(self) -> dict[str, Slot]:
         """The slots that hold the values of other lanes' topics in this process."""
         if self._executor is None:

@@ -438,15 +438,18 @@ class _Recv(_Handover):
         self.lost = 0
 
     def __call__(self) -> None:
-        link = self.link
-        i = link.state.iteration
-        v = i - self.delayed
+        v = self.link.state.iteration - self.delayed
         words = self.words
         if v < words[W_FIRST]:  # before the first value any lane handed over
             return
         w, payload = self.entries[(v // self.step) % DEPTH]
-        if words[w] != v and not self._wait(v, w, i):
+        if words[w] != v and not self._wait(v, w):
             return
+        self._read(v, w, payload)
+
+    def _read(self, v: int, w: int, payload: memoryview) -> None:
+        """Version ``v`` from entry ``w`` into the readers' slot (if it stayed)."""
+        words = self.words
         if FENCED:
             acquire_fence()
         seq, it, n = words[w + 1], words[w + 2], words[w + 3]
@@ -461,7 +464,7 @@ class _Recv(_Handover):
         slot.seq = seq
         slot.iteration = it
 
-    def _wait(self, v: int, w: int, i: int) -> bool:
+    def _wait(self, v: int, w: int) -> bool:
         """Wait for version ``v``: True when it is there; False when it will not come
         (the producer stopped, or finished the iteration without it) or, in real time,
         did not come before this iteration's period ended (late)."""
@@ -522,18 +525,6 @@ class _LetIn(_Recv):
             if not link.simulated:  # not finished in its window: keep the last value
                 self.let_overruns += 1
                 return
-            if not self._wait(r, w, i):
+            if not self._wait(r, w):
                 return
-        if FENCED:
-            acquire_fence()
-        seq, it, n = words[w + 1], words[w + 2], words[w + 3]
-        value = self.decode(payload, n) if n >= 0 else None
-        if FENCED:
-            acquire_fence()
-        if words[w] != r:
-            self.lost += 1
-            return
-        slot = self.slot
-        slot.value = value
-        slot.seq = seq
-        slot.iteration = it
+        self._read(r, w, payload)

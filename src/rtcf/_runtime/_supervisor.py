@@ -1047,9 +1047,8 @@ class WorkerRunner:
         if failures:
             raise min(failures, key=lambda f: f[0])[1]
         assert main is not None
-        kinds = self._lane_layout.kinds if self._lane_layout is not None else ()
-        every = dict(zip(self._lane_layout.lanes, (k[0] for k in kinds), strict=True)) \
-            if self._lane_layout is not None else {}
+        lay = self._lane_layout
+        every = {n: k[0] for n, k in zip(lay.lanes, lay.kinds, strict=True)} if lay else {}
         for name, result in results.items():
             main.lanes[name] = {
                 "every": every.get(name, 1),

@@ -347,7 +347,7 @@ class Worker:
         link.bound(runner.state, self._stop(), runner.clock.now_ns)
         self.link = link
         runner.handovers = link.bind
-        runner.set_foreign(runner._foreign_nodes, runner._foreign_members, runner._mirror)
+        runner.recompile()
 
     def _release_lanes(self) -> None:
         if self.link is not None:
