@@ -51,7 +51,10 @@ def check_follows_clock(proc, running, iterations, times):
     assert iterations == [], [m.data for m in iterations]
     clock("/rt_runner")
     # ten periods of /clock time after the first message: iterations 0 to 10
-    assert wait_until(lambda: len(iterations) >= 11 and len(times) >= 11)
+    assert wait_until(lambda: len(iterations) >= 11 and len(times) >= 11, timeout=30), (
+        [m.data for m in iterations],
+        [m.data for m in times],
+    )
     time.sleep(1.0)  # /clock has stopped: so has the loop
     assert [m.data for m in iterations] == list(range(11))
     assert [m.data for m in times] == pytest.approx([k * 0.1 for k in range(11)])
