@@ -48,14 +48,32 @@ def trace(tmp_path: Path, name: str, text: str, *args: str) -> list[dict[str, st
     done = run_rtcf("launch", launch, *args, "--trace", out)
     assert done.returncode == 0, done.stderr
     with open(out) as f:
-        return list(csv.DictReader(f))
+        rows = _Rows(csv.DictReader(f))
+    rows.said = done.stderr
+    return rows
+
+
+def on_time_trace(tmp_path: Path, name: str, text: str, *args: str) -> list[dict[str, str]]:
+    """A real-time trace in which no handover came late or was lost. On a loaded
+    machine a lane may be kept off its CPU for periods: it then keeps the previous
+    value, as it must, and counts it; such a run is tried again (at most three)."""
+    for _ in range(3):
+        rows = trace(tmp_path, name, text, *args)
+        if not re.search(r"\d+ (late|lost|let overruns|releases skipped)\b", rows.said):
+            return rows
+    raise AssertionError(f"three runs with handovers late or lost:\n{rows.said[-2000:]}")
+
+
+class _Rows(list):
+    said = ""  # the run's stderr: late arrivals are counted there
 
 
 def assert_same(reference: list[dict[str, str]], lanes: list[dict[str, str]]) -> None:
     assert len(lanes) == len(reference) > 10
     assert list(lanes[0]) == list(reference[0])  # every topic, of every lane
-    for a, b in zip(reference, lanes, strict=True):
-        assert a == b, (a, b)
+    for k, (a, b) in enumerate(zip(reference, lanes, strict=True)):
+        differs = {t: (a[t], b[t]) for t in a if a[t] != b[t]}
+        assert not differs, (k, differs, getattr(lanes, "said", "")[-3000:])
 
 
 FIG1 = (EXAMPLES / "paper_evaluation.launch").read_text()
@@ -75,7 +93,8 @@ def test_fig1_in_two_lanes_gives_the_sequential_values(tmp_path, clock):
     ).replace("</launch>", SOURCE + "</launch>")
     args = ["--duration", "1"] + ([clock] if clock == "--sim" else [])
     reference = trace(tmp_path, "seq", text, *args)
-    split = trace(tmp_path, "lanes", with_lanes(text, {"R2": "right", "R3": "right"}), *args)
+    run = on_time_trace if clock == "real time" else trace
+    split = run(tmp_path, "lanes", with_lanes(text, {"R2": "right", "R3": "right"}), *args)
     assert_same(reference, split)
     assert any(float(r["/R3_G2H1"]) != 0.0 for r in split)  # values that moved
 
@@ -127,7 +146,7 @@ LET = """<launch>
 def test_a_let_lane_gives_the_same_values_under_sim_and_in_real_time(tmp_path):
     # 9 ms of CPU every 4 periods of 5 ms: longer than a period, shorter than its window
     sim = trace(tmp_path, "sim", LET, "--sim", "--duration", "1")
-    real = trace(tmp_path, "real", LET, "--duration", "1")
+    real = on_time_trace(tmp_path, "real", LET, "--duration", "1")
     assert_same(sim, real)
     x = [float(r["/x"]) for r in sim]
     for k, row in enumerate(sim):  # released at 1, 5, 9, ...: /x of r - 1, seen at r + 4
@@ -185,3 +204,42 @@ def test_a_lane_process_that_dies_ends_the_run_with_one_line_naming_it(tmp_path)
     assert "/slow's update() was running" in errors[0], errors
     assert marker.read_text() == "0"  # the main lane stopped through its safe stops
     assert rtcf_shm_names() == []
+
+
+def test_a_recording_of_lanes_is_the_sequential_recording_and_replays_to_itself(tmp_path):
+    # every lane records its own topics into the one file: in lock step, under --sim,
+    # the file holds the sequential run's messages; with the supervisor on logical
+    # execution time too, a replay (in one process) gives the recording again
+    text = (EXAMPLES / "cascade.launch").read_text()
+    inner = {"velocity_controller": "inner"}
+    runs = {"seq": text, "lanes": with_lanes(text, inner),
+            "let": with_lanes(text, {**inner, "supervisor": "plan"})}
+    files = {}
+    for name, launch in runs.items():
+        path = tmp_path / f"{name}.launch"
+        path.write_text(launch)
+        files[name] = tmp_path / f"{name}.mcap"
+        done = run_rtcf("launch", path, "--sim", "--duration", "0.2", "--record", files[name])
+        assert done.returncode == 0, done.stderr
+    reference, split = messages(files["seq"]), messages(files["lanes"])
+    assert len(reference) > 400
+    assert {"/cascade/torque", "/cascade/velocity_setpoint"} < {t for t, *_ in split}
+    assert split == reference
+    let = messages(files["let"])
+    assert {t for t, *_ in let} == {t for t, *_ in reference}
+    assert let != reference  # the supervisor's outputs are seen one window later
+    done = run_rtcf("replay", files["let"])
+    assert done.returncode == 0, done.stderr
+    assert messages(tmp_path / "let.replay.mcap") == let
+
+
+def messages(path: Path) -> list[tuple[str, int, int, bytes]]:
+    """(topic, iteration, log time, bytes) of every recorded value, in a stable order."""
+    from mcap.reader import make_reader
+
+    with open(path, "rb") as f:
+        return sorted(
+            (c.topic, m.sequence, m.log_time, bytes(m.data))
+            for _, c, m in make_reader(f).iter_messages()
+            if not c.topic.endswith("/iteration_info")  # timing differs by lane
+        )

@@ -219,6 +219,7 @@ def cmd_launch(ns: argparse.Namespace) -> int:
         on_started=lambda realtime: _say_realtime(realtime, ns.sim),
         bridge=bridge,
     )
+    runner.say_lanes = False  # its lanes line below says where each lane runs
     status = 0
     previous = _install_stop_handlers(runner)
     try:

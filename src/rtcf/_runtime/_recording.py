@@ -14,6 +14,7 @@ nothing should be lost. The supervisor drains the rings into a writer
 
 from __future__ import annotations
 
+import dataclasses
 import re
 import time
 from collections.abc import Callable, Iterable
@@ -85,6 +86,16 @@ def recorded_topics(
                 )
             )
             offset += nbytes
+    return out
+
+
+def relaid(topics: list[RecordedTopic]) -> list[RecordedTopic]:
+    """The same topics laid out one after the other again (some were left out)."""
+    out: list[RecordedTopic] = []
+    offset = 0
+    for t in topics:
+        out.append(dataclasses.replace(t, offset=offset))
+        offset += t.nbytes
     return out
 
 

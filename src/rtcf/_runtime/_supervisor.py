@@ -59,7 +59,7 @@ from ._doorbell import Doorbell, RungMailbox
 from ._heap import fill_numpy_cache
 from ._lanes import LaneLayout, abort_all, init_words, layout, reset_stop
 from ._port_channels import OUTPUT_RING_RECORDS, MappedPort, segment_size
-from ._recording import RecordedTopic, RecordingDrain, RecordSink
+from ._recording import RecordedTopic, RecordingDrain, RecordSink, relaid
 from ._recording import segment_size as recording_segment_size
 from ._shm import Segment, outgoing, send_segments
 from ._worker import (
@@ -164,6 +164,9 @@ class WorkerRunner:
         self._lane_layout: LaneLayout | None = None
         self._lane_runs = 0
         self.lane_placement: dict[str, str] = {}  # lane -> where it runs, said once
+        self.say_lanes = True  # in the log at info level (rtcf launch says it itself)
+        # a lane's worker rings the main lane's bridge after pushing outputs to publish
+        self.outputs_bell: Doorbell | None = None
 
     # -- process ---------------------------------------------------------------
     def start(self) -> WorkerRunner:
@@ -202,7 +205,8 @@ class WorkerRunner:
         # read EAGAIN on its control channel as the end of it
         ours.setblocking(True)
         theirs.setblocking(True)
-        bell = self.bridge.doorbell.fd if self.bridge is not None else -1
+        bell_of = self.bridge.doorbell if self.bridge is not None else self.outputs_bell
+        bell = bell_of.fd if bell_of is not None else -1
         clock_bell = self._clock_bell.fd if self._clock_bell is not None else -1
         try:
             self.process = subprocess.Popen(
@@ -718,6 +722,12 @@ class WorkerRunner:
     def stop_requested(self) -> bool:
         return self._ctl is not None and self._ctl[CTL_STOP] != 0
 
+    @property
+    def bridged(self) -> bool:
+        """Whether a middleware publishes this worker's mapped outputs (and feeds its
+        inputs): its own bridge, or the main lane's for a lane's worker."""
+        return self.bridge is not None or self.outputs_bell is not None
+
     def _ros_offset(self) -> int:
         """What turns a timing row's scheduled start into ROS time: 0 on a simulated
         clock and on /clock time, else wall minus monotonic (taken once per run)."""
@@ -744,67 +754,94 @@ class WorkerRunner:
         iterations: int | None,
         trace: str | None,
         record: RecordSink | None,
-        lane_run: int | None = None,
     ) -> RunResult:
-        prepared = self.call(
-            "prepare", self.bridge is not None, record.pattern if record is not None else None
+        run = self._open_run(self._prepare(record), record, self._ros_offset())
+        try:
+            if self.bridge is not None and run.ports:
+                self.bridge.open(run.ports, run.channels)
+            done = self._call_run(run, iterations, trace, None)
+        finally:
+            if self.bridge is not None and run.ports:
+                self.bridge.close_run()
+            self._close_run(run)
+        return self._result(run, done)
+
+    def _prepare(self, record: RecordSink | None) -> dict[str, Any]:
+        """Compile the worker's schedule: its mapped ports and recorded topics."""
+        return self.call(
+            "prepare", self.bridged, record.pattern if record is not None else None
         )
+
+    def _open_run(
+        self, prepared: dict[str, Any], record: RecordSink | None, ros_offset: int
+    ) -> _Run:
+        """A run's segments: timing, the mapped ports' channels, the recording's rings."""
         schedule: list[str] = prepared["schedule"]
         ports: list[MappedPort] = prepared["ports"]
         recorded: list[RecordedTopic] = prepared["recorded"]
-        rec_seg = drain = None
+        run = _Run(schedule, ports, recorded, record, ros_offset)
         if record is not None and recorded:
             record.begin(recorded)
-            rec_seg = self._segment(recording_segment_size(recorded), "rtcf-record")
-            drain = RecordingDrain(rec_seg.buf, recorded)
-            self._recording = (drain, record)
+            run.rec_seg = self._segment(recording_segment_size(recorded), "rtcf-record")
+            run.drain = RecordingDrain(run.rec_seg.buf, recorded)
+            self._recording = (run.drain, record)
         capacity = ring_capacity(len(schedule))
-        seg = self._segment(Ring.nbytes(capacity, row_size(len(schedule))), "rtcf-timing")
-        ring = Ring.create(seg.buf, capacity, row_size(len(schedule)))
-        port_seg, channels = self._port_channels(ports)
-        aggregate = TimingAggregate()
+        run.seg = self._segment(Ring.nbytes(capacity, row_size(len(schedule))), "rtcf-timing")
+        run.ring = Ring.create(run.seg.buf, capacity, row_size(len(schedule)))
+        run.port_seg, run.channels = self._port_channels(ports)
         if self.bridge is not None and self.settings.iteration_info:
-            aggregate.on_rows = self.bridge.iteration_info
+            run.aggregate.on_rows = self.bridge.iteration_info
         # wall minus monotonic, once per run, for the loop and the recording alike: every
         # recorded channel, the timing rows too, is stamped with the same offset
-        ros_offset = self._ros_offset()
-        if record is not None and hasattr(record, "timing_rows"):
-            aggregate.on_rows = _with_timing_rows(aggregate.on_rows, record, ros_offset)
-        self._timing = (ring, schedule, aggregate)
+        if record is not None and hasattr(record, "timing_rows") and self.lane == MAIN_LANE:
+            run.aggregate.on_rows = _with_timing_rows(run.aggregate.on_rows, record, ros_offset)
+        self._timing = (run.ring, schedule, run.aggregate)
         self._events.pop("started", None)
-        try:
-            if self.bridge is not None and ports:
-                self.bridge.open(ports, channels)
-            done = self.call(
-                "run", iterations, seg, trace, port_seg, ports, rec_seg, recorded or None,
-                None if self.simulated or self.settings.use_sim_time else ros_offset,
-                lane_run,
-            )
-        finally:
-            self._timing = None
-            self._recording = None
-            if drain is not None and record is not None and rec_seg is not None:
-                drain.drain(record.write)
-                record.end_run(drain.dropped(), {})
-                drain.close()
-                self._close_segment(rec_seg)
-            aggregate.finish(ring, schedule)
-            ring.close()
-            self._close_segment(seg)
-            if self.bridge is not None and ports:
-                self.bridge.close_run()
-            for topic, channel in channels.items():
-                if isinstance(channel, Ring) and channel.dropped:
-                    self.log_sink(_note(30, f"{channel.dropped} messages on {topic} were dropped: "
-                                            "the channel to the middleware was full"))
-                channel.close()
-            if port_seg is not None:
-                self._close_segment(port_seg)
+        return run
+
+    def _call_run(
+        self, run: _Run, iterations: int | None, trace: str | None, lane_run: int | None
+    ) -> dict[str, Any]:
+        offset = None if self.simulated or self.settings.use_sim_time else run.ros_offset
+        done: dict[str, Any] = self.call(
+            "run", iterations, run.seg, trace, run.port_seg, run.ports, run.rec_seg,
+            run.recorded or None, offset, lane_run,
+        )
+        run.done = done
+        return done
+
+    def _close_run(self, run: _Run) -> None:
+        """Drain what is left and let go of the run's segments (the bridge is closed)."""
+        self._timing = None
+        self._recording = None
+        record = run.record
+        if run.drain is not None and record is not None and run.rec_seg is not None:
+            run.drain.drain(record.write)
+            record.end_run(run.drain.dropped(), {})
+            run.drain.close()
+            self._close_segment(run.rec_seg)
+        if run.ring is not None and run.seg is not None:
+            run.aggregate.finish(run.ring, run.schedule)
+            run.ring.close()
+            self._close_segment(run.seg)
+        for topic, channel in run.channels.items():
+            if isinstance(channel, Ring) and channel.dropped:
+                self.log_sink(_note(30, f"{channel.dropped} messages on {topic} were dropped: "
+                                        "the channel to the middleware was full"))
+            channel.close()
+        if run.port_seg is not None:
+            self._close_segment(run.port_seg)
+        done = run.done
+        if done is None:
+            return
         if record is not None:
             record.end_run({}, done.get("recording", {}))
         for topic, n in done.get("oversize", {}).items():
             self.log_sink(_note(30, f"{n} messages on {topic} were larger than a channel record "
                                     "and were not published"))
+
+    def _result(self, run: _Run, done: dict[str, Any]) -> RunResult:
+        aggregate = run.aggregate
         timing = aggregate.summary(done["rows"], done["overruns"])
         return RunResult(
             iterations=done["iterations"],
@@ -951,12 +988,14 @@ class WorkerRunner:
             log_capacity=self.log_capacity,
         )
         worker.lane = lane
+        worker.outputs_bell = self.bridge.doorbell if self.bridge is not None else None
         worker.transition_listeners = self.transition_listeners
         worker.start()
         self._lanes[lane] = worker
         self.lane_placement[lane] = f"pid {worker.pid}, {how}, priority {priority}"
-        self.log_sink(_note(10, f"lane {lane!r} runs in a worker process of its own "
-                                f"(pid {worker.pid}) on {how}, priority {priority}"))
+        said = (f"lane {lane!r} runs in a worker process of its own (pid {worker.pid}) on "
+                f"{how}, priority {priority}")
+        self.log_sink(_note(20 if self.say_lanes else 10, said))
         return worker
 
     def _running_lanes(self) -> dict[str, WorkerRunner]:
@@ -1011,39 +1050,61 @@ class WorkerRunner:
         self, iterations: int | None, trace: str | None, record: RecordSink | None
     ) -> RunResult:
         """Run every lane's worker together: the others in threads of their own (each
-        drains its worker), the main lane here; the first failure stops them all."""
+        drains its worker), the main lane here; the first failure stops them all. Each
+        lane publishes and records its own topics; the bridge serves them all."""
         self._bind_lanes(trace is not None)
         self._lane_runs += 1
-        run = self._lane_runs
+        lane_run = self._lane_runs
+        workers = self._running_lanes()
+        sink = _LockedSink(record) if record is not None else None
+        prepared = {name: w._prepare(sink) for name, w in workers.items()}
+        _share_out(prepared)
+        ros_offset = self._ros_offset()
+        runs: dict[str, _Run] = {}
         failures: list[tuple[float, BaseException]] = []
         results: dict[str, RunResult] = {}
+        opened = False
+        main: RunResult | None = None
+        try:
+            for name, w in workers.items():
+                runs[name] = w._open_run(prepared[name], sink, ros_offset)
+            ports, channels = _bridged_channels(runs)
+            if self.bridge is not None and ports:
+                self.bridge.open(ports, channels)
+                opened = True
 
-        def lane(name: str, worker: WorkerRunner) -> None:
+            def lane(name: str, worker: WorkerRunner) -> None:
+                try:
+                    # (the main lane's count ends every lane after the same iteration)
+                    done = worker._call_run(runs[name], None, None, lane_run)
+                    results[name] = worker._result(runs[name], done)
+                except BaseException as exc:
+                    failures.append((time.monotonic(), exc))
+                    self._abort_lanes()
+
+            threads = [
+                threading.Thread(target=lane, args=(n, w), name=f"rtcf-lane-{n}", daemon=True)
+                for n, w in workers.items()
+                if w is not self
+            ]
+            for t in threads:
+                t.start()
             try:
-                # (the main lane's count ends every lane after the same iteration)
-                results[name] = worker._run_one(None, None, None, run)
+                main = self._result(runs[MAIN_LANE],
+                                    self._call_run(runs[MAIN_LANE], iterations, trace, lane_run))
             except BaseException as exc:
                 failures.append((time.monotonic(), exc))
                 self._abort_lanes()
-
-        threads = [
-            threading.Thread(target=lane, args=(n, w), name=f"rtcf-lane-{n}", daemon=True)
-            for n, w in self._running_lanes().items()
-            if w is not self
-        ]
-        for t in threads:
-            t.start()
-        try:
-            main = self._run_one(iterations, trace, record, run)
-        except BaseException as exc:
-            failures.append((time.monotonic(), exc))
-            self._abort_lanes()
-            main = None
-        for t in threads:
-            while t.is_alive():
-                t.join(POLL_S)
-                if main is None:
-                    self.pump()
+            for t in threads:
+                while t.is_alive():
+                    t.join(POLL_S)
+                    if main is None:
+                        self.pump()
+        finally:
+            if opened and self.bridge is not None:
+                self.bridge.close_run()
+            for name, run in runs.items():
+                workers[name]._close_run(run)
         if failures:
             raise min(failures, key=lambda f: f[0])[1]
         assert main is not None
@@ -1074,6 +1135,49 @@ class WorkerRunner:
         return main
 
 
+def _share_out(prepared: dict[str, dict[str, Any]]) -> None:
+    """Each recorded topic in one lane only (a mapped input several lanes read is fed
+    in each); a mapped output written in several lanes is a clear error."""
+    published: dict[str, str] = {}
+    recorded: set[str] = set()
+    for lane, p in prepared.items():
+        for port in p["ports"]:
+            if port.direction != "output":
+                continue
+            if port.topic in published:
+                raise ConfigurationError(
+                    f"topic {port.topic!r} is mapped to the middleware and written in lanes "
+                    f"{published[port.topic]!r} and {lane!r}: one lane must own a published "
+                    "topic; put its writers (a component and its fallback) in one lane"
+                )
+            published[port.topic] = lane
+        mine = [t for t in p["recorded"] if t.topic not in recorded]
+        recorded.update(t.topic for t in mine)
+        p["recorded"] = relaid(mine)
+
+
+def _bridged_channels(
+    runs: dict[str, _Run],
+) -> tuple[list[MappedPort], dict[str, Ring | Mailbox]]:
+    """Every lane's mapped ports as one bridge sees them: an input several lanes read
+    is one subscription that feeds each lane's mailbox."""
+    ports: dict[str, MappedPort] = {}
+    boxes: dict[str, list[Mailbox]] = {}
+    channels: dict[str, Any] = {}
+    for run in runs.values():
+        for port in run.ports:
+            channel = run.channels[port.topic]
+            if port.direction == "input":
+                assert isinstance(channel, Mailbox)
+                boxes.setdefault(port.topic, []).append(channel)
+            else:
+                channels[port.topic] = channel
+            ports.setdefault(port.topic, port)
+    for topic, found in boxes.items():
+        channels[topic] = found[0] if len(found) == 1 else _FanOut(found)
+    return list(ports.values()), channels
+
+
 def _merge_connections(
     first: list[dict[str, Any]], second: list[dict[str, Any]]
 ) -> list[dict[str, Any]]:
@@ -1085,6 +1189,68 @@ def _merge_connections(
         mine["publishers"] += c["publishers"]
         mine["subscribers"] += c["subscribers"]
     return [out[t] for t in sorted(out)]
+
+
+@dataclass
+class _Run:
+    """One run's channels on the supervisor's side, from prepare to close."""
+
+    schedule: list[str]
+    ports: list[MappedPort]
+    recorded: list[RecordedTopic]
+    record: RecordSink | None
+    ros_offset: int
+    seg: Segment | None = None
+    ring: Ring | None = None
+    aggregate: TimingAggregate = dataclasses.field(default_factory=TimingAggregate)
+    port_seg: Segment | None = None
+    channels: dict[str, Ring | Mailbox] = dataclasses.field(default_factory=dict)
+    rec_seg: Segment | None = None
+    drain: RecordingDrain | None = None
+    done: dict[str, Any] | None = None
+
+
+class _FanOut:
+    """One subscription's messages into the mailbox of every lane that reads them
+    (what a bridge sees of a mapped input several lanes read)."""
+
+    def __init__(self, boxes: list[Mailbox]) -> None:
+        self.boxes = boxes
+        self.size = min(b.size for b in boxes)
+
+    def write(self, payload: bytes) -> None:
+        for box in self.boxes:
+            box.write(payload)
+
+    def close(self) -> None:
+        pass  # each lane closes its own
+
+
+class _LockedSink:
+    """A record sink that the lanes' threads share: one writer at a time."""
+
+    def __init__(self, sink: RecordSink) -> None:
+        self._sink = sink
+        self._lock = threading.Lock()
+        self.pattern = sink.pattern
+        if hasattr(sink, "timing_rows"):
+            self.timing_rows = self._timing_rows
+
+    def begin(self, topics: list[RecordedTopic]) -> None:
+        with self._lock:
+            self._sink.begin(topics)
+
+    def write(self, record: Any) -> None:
+        with self._lock:
+            self._sink.write(record)
+
+    def end_run(self, dropped: dict[str, int], counts: dict[str, dict[str, int]]) -> None:
+        with self._lock:
+            self._sink.end_run(dropped, counts)
+
+    def _timing_rows(self, rows: Any, offset_ns: int) -> None:
+        with self._lock:
+            self._sink.timing_rows(rows, offset_ns)  # type: ignore[attr-defined]
 
 
 class _PendingTransition:

@@ -366,13 +366,6 @@ class Worker:
         if record is not None:
             fed = runner.mapped_ports()[1] if bridged else []
             recorded = recorded_topics(_all_outputs(runner), fed, record)
-        if self.link is not None and runner.lane != MAIN_LANE and (ports or recorded):
-            what = "mapped to the middleware" if ports else "recorded"
-            topic = (ports or recorded)[0].topic
-            raise ConfigurationError(
-                f"topic {topic!r} is {what}, but it is in lane {runner.lane!r}: for now only "
-                "the main lane's topics are; move its producer and readers to the main lane"
-            )
         return {"schedule": runner.schedule, "ports": ports, "recorded": recorded}
 
     def run(
