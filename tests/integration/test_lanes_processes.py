@@ -21,7 +21,7 @@ import pytest
 
 from .._proc import read_rest, rtcf_shm_names, wait_for_match
 from .conftest import run_rtcf
-from .test_worker import start, write_launch
+from .test_worker import runner_xml, start, write_launch
 
 pytestmark = pytest.mark.integration
 
@@ -177,6 +177,33 @@ def test_a_component_that_raises_in_a_lane_stops_every_lane_through_safe_stop(tm
     assert marker.read_text() == "0"  # the main lane's hardware interface stopped safely
     assert rtcf_shm_names() == []
 
+
+LET_OVERRUN = """
+  <node name="hw" pkg="rtcf" type="rt_launcher" args="rtcf_fault_components SafeHardware -f">
+    <param name="path" value="{path}"/>
+  </node>
+  <node name="mpc" pkg="rtcf" type="rt_launcher" args="rtcf_examples Busy">
+    <param name="every" value="4"/><param name="cost_us" value="25000"/>
+    <param name="lane" value="mpc"/>
+  </node>"""
+
+
+def test_max_let_overruns_stops_every_lane_through_safe_stop(tmp_path):
+    # 25 ms of CPU in windows of 4 periods of 5 ms: every window overruns; the third trips
+    marker = tmp_path / "torque"
+    marker.write_text("1")
+    runner = runner_xml(max_let_overruns=2)
+    path = write_launch(tmp_path, LET_OVERRUN.format(path=marker), runner)
+    proc = start("launch", path, "--duration", "5")
+    _out, err = read_rest(proc, 60)
+    assert proc.returncode == 1, err
+    errors = [line for line in err.splitlines() if line.startswith("rtcf: error:")]
+    assert len(errors) == 1, err
+    assert re.search(r"lane 'mpc': watchdog max_let_overruns=2: 3 windows of logical "
+                     r"execution time not finished in time, the last released at iteration "
+                     r"\d+", errors[0]), errors
+    assert marker.read_text() == "0"  # the main lane's hardware interface stopped safely
+    assert rtcf_shm_names() == []
 
 HANG = """
   <node name="hw" pkg="rtcf" type="rt_launcher" args="rtcf_fault_components SafeHardware -f">

@@ -2,6 +2,7 @@
 every and phase, on /clock time. It runs in iterations 1, 4, 7, 10 at its place, and
 its mapped outputs are published only in those."""
 
+import re
 import time
 
 import pytest
@@ -17,11 +18,25 @@ pytestmark = pytest.mark.integration
 LAUNCH = FIXTURES / "launch" / "rates.launch"
 
 
-def test_roslaunch_every_and_phase_on_a_launcher(topics):
+@pytest.mark.parametrize("lanes", [False, True], ids=["one lane", "lanes"])
+def test_roslaunch_every_and_phase_on_a_launcher(topics, tmp_path, lanes):
+    launch_file = LAUNCH
+    if lanes:  # the echo in a lock-step lane, the slow one on logical execution time:
+        # each a worker process of its own, on /clock time, with the same values
+        text = LAUNCH.read_text()
+        for node, lane in (("echo", "right"), ("slow_echo", "plan")):
+            text = text.replace(f'<node name="{node}" pkg="rtcf" type="rt_launcher"',
+                                f'<node name="{node}" pkg="rtcf" type="rt_launcher" '
+                                f'lane_placeholder="{lane}"', 1)
+        text = re.sub(r'(<node [^>]*) lane_placeholder="(\w+)"([^>]*>)',
+                      r'\1\3<param name="lane" value="\2"/>', text)
+        assert text.count('name="lane"') == 2, text
+        launch_file = tmp_path / "rates_lanes.launch"
+        launch_file.write_text(text)
     iterations = topics.sub("/sim/iteration", Int64)
     slow = topics.sub("/slow/iteration", Int64)
     slow_t = topics.sub("/slow/time", Float64)
-    launch = start("roslaunch", "--screen", "-p", _port(), LAUNCH)
+    launch = start("roslaunch", "--screen", "-p", _port(), launch_file)
     try:
         from .._proc import wait_for
 

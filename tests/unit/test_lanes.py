@@ -8,7 +8,7 @@ import rtcf
 from rtcf._core._clock import SimClock
 from rtcf._core._errors import ConfigurationError
 from rtcf._core._executor import Executor, StopFlag, compile_plans
-from rtcf._core._faults import FailurePolicy
+from rtcf._core._faults import FailurePolicy, WatchdogTripped
 from rtcf._core._lanes import (
     LET_IN,
     LET_OUT,
@@ -290,6 +290,49 @@ def test_an_executor_with_a_stride_runs_the_releases_and_skips_missed_ones() -> 
     assert ex.missed == 2
     assert ex.timing.overruns == 1
 
+
+
+def test_max_let_overruns_ends_a_let_lanes_loop_past_that_many_windows() -> None:
+    state = LoopState(1000.0)
+    ran: list[int] = []
+    # releases at 2, 6, 10, ...: those at 6 and 18 overrun their 4 ms windows
+    costs = {6: 5_000_000, 18: 5_000_000, 30: 5_000_000}
+    clock = SimClock()
+
+    def work() -> None:
+        ran.append(state.iteration)
+        clock.advance(costs.get(state.iteration, 0))
+
+    ex = Executor([work], clock, state)
+    ex.stride = 4
+    ex.skip_missed = True
+    ex.max_let_overruns = 1  # the first is counted, the second trips
+    state.iteration = 2 - 4
+    ex.timing = TimingWriter(["w"], local_ring(1, 64))
+    with pytest.raises(WatchdogTripped) as trip:
+        ex.run(40, StopFlag())
+    assert (trip.value.limit, trip.value.allowed, trip.value.measured) == (
+        "max_let_overruns", 1, 2)
+    assert trip.value.iteration == 18  # the release whose window it overran
+    assert ran == [2, 6, 14, 18]  # 10 was skipped after 6 overran
+    assert "2 windows of logical execution time not finished in time, the last released " \
+        "at iteration 18" in trip.value.describe()
+
+
+def test_max_let_overruns_leaves_a_lock_step_loop_alone() -> None:
+    state = LoopState(1000.0)
+    clock = SimClock()
+    ex = Executor([lambda: clock.advance(2_000_000)], clock, state)  # every one overruns
+    ex.max_let_overruns = 1
+    ex.timing = TimingWriter(["w"], local_ring(1, 64))
+    ex.run(10, StopFlag())
+    assert ex.timing.overruns == 10
+
+
+def test_max_let_overruns_is_a_runner_parameter() -> None:
+    assert RunnerSettings.from_params({"max_let_overruns": "3"}).max_let_overruns == 3
+    with pytest.raises(ConfigurationError, match="max_let_overruns must not be negative"):
+        RunnerSettings(max_let_overruns=-1)
 
 ROS1_LAUNCH = """<launch>
   <node name="rt_runner" pkg="rtcf" type="rt_runner">

@@ -169,6 +169,7 @@ class Executor:
         self.stride = 1
         self.skip_missed = False
         self.missed = 0  # releases skipped that way
+        self.max_let_overruns = 0  # such a lane's watchdog: windows overrun in a run
         self.updates = updates  # all active
         self.clock = clock
         self.state = state
@@ -255,6 +256,9 @@ class Executor:
         running = self.running
         max_streak = self.max_consecutive_overruns or sys.maxsize
         max_in_window = self.max_overruns_per_second or sys.maxsize
+        # a lane on logical execution time (it skips missed releases) overran a window
+        max_let = self.max_let_overruns if skip_missed and self.max_let_overruns else sys.maxsize
+        let_overruns = 0
         window = max(1, round(state.frequency))
         streak = in_window = window_end = 0
         # ROS time of an iteration = its scheduled start + this (0 for simulated and
@@ -323,6 +327,14 @@ class Executor:
                         deadline += missed * period
                         i += missed * stride
                         self.missed += missed
+                    let_overruns += 1
+                    if let_overruns > max_let:
+                        if off >= 0:
+                            commit()
+                        count += 1
+                        raise WatchdogTripped(
+                            "max_let_overruns", max_let, let_overruns, row[b + COL_ITERATION]
+                        )
                     streak += 1
                     if i >= window_end:
                         window_end = i + window

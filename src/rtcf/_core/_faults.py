@@ -22,7 +22,8 @@ row. ``SystemExit`` and ``KeyboardInterrupt`` raised by an update always stop th
 loop.
 
 Watchdogs (runner parameters) end the loop through the same safe-stop path:
-``max_consecutive_overruns`` and ``max_overruns_per_second`` (0: off).
+``max_consecutive_overruns`` and ``max_overruns_per_second`` (0: off), and for a lane on
+logical execution time ``max_let_overruns`` (windows it did not finish in a run).
 """
 
 from __future__ import annotations
@@ -102,6 +103,8 @@ class WatchdogTripped(Exception):
         what = {
             "max_consecutive_overruns": f"{self.measured} overruns in a row",
             "max_overruns_per_second": f"{self.measured} overruns within one second",
+            "max_let_overruns": f"{self.measured} windows of logical execution time "
+            "not finished in time, the last released",
         }.get(self.limit, f"{self.measured}")
         return (
             f"watchdog {self.limit}={self.allowed}: {what} at iteration {self.iteration}; "

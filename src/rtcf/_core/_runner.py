@@ -866,6 +866,7 @@ class Runner:
             executor.running = self.running_cell
         executor.max_consecutive_overruns = self.settings.max_consecutive_overruns
         executor.max_overruns_per_second = self.settings.max_overruns_per_second
+        executor.max_let_overruns = self.settings.max_let_overruns
         previous = self._executor or self._previous
         if previous is not None:  # keep time on the same grid as the iterations before
             executor.origin_ns = previous.origin_ns
@@ -1015,7 +1016,8 @@ class Runner:
         except WatchdogTripped as trip:
             self.drain_logs()
             self.safe_stop(trip.describe())
-            raise LoopError(f"runner {self.name!r}: {trip.describe()}") from None
+            lane = f", lane {self.lane!r}" if self.lane not in (None, "", MAIN_LANE) else ""
+            raise LoopError(f"runner {self.name!r}{lane}: {trip.describe()}") from None
         finally:
             executor.idle = None
             executor.timing = None

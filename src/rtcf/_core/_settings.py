@@ -34,6 +34,9 @@ class RunnerSettings:
     ``iteration_info``: publish ``~/iteration_info`` (one message per iteration).
     ``max_consecutive_overruns``/``max_overruns_per_second``: watchdogs that end the
     loop through the safe-stop path past that many overruns (0: off).
+    ``max_let_overruns``: a watchdog that ends the loop through the safe-stop path
+    when a lane on logical execution time has not finished more than that many of
+    its windows in a run (0: off; each is counted and reported either way).
     ``hook_timeout``: seconds a ``configure``/``start``/``stop``/``cleanup``/``safe_stop``
     hook may take; past it the supervisor names the hook and ends the run.
     ``heartbeat_timeout``: seconds the worker waits for a sign of life from its
@@ -61,6 +64,7 @@ class RunnerSettings:
     ros_qos_durability: str = "volatile"
     iteration_info: bool = True
     max_consecutive_overruns: int = 0
+    max_let_overruns: int = 0
     max_overruns_per_second: int = 0
     hook_timeout: float = 10.0
     heartbeat_timeout: float = 5.0
@@ -113,7 +117,7 @@ class RunnerSettings:
                 f"ros_qos_durability {self.ros_qos_durability!r} is unknown; "
                 "use volatile or transient_local"
             )
-        for key in ("max_consecutive_overruns", "max_overruns_per_second"):
+        for key in ("max_consecutive_overruns", "max_overruns_per_second", "max_let_overruns"):
             if getattr(self, key) < 0:
                 raise bad(f"{key} must not be negative (0 turns the watchdog off)")
         if not self.hook_timeout > 0:
@@ -217,6 +221,7 @@ _CONVERTERS = {
     "iteration_info": _to_bool,
     "max_consecutive_overruns": _to_int,
     "max_overruns_per_second": _to_int,
+    "max_let_overruns": _to_int,
     "hook_timeout": _to_float,
     "heartbeat_timeout": _to_float,
     "lanes": lambda v: _lanes_text(v),
@@ -240,6 +245,7 @@ _EXPECTED = {
     "iteration_info": "true or false",
     "max_consecutive_overruns": "an integer",
     "max_overruns_per_second": "an integer",
+    "max_let_overruns": "an integer",
     "hook_timeout": "a number of seconds",
     "heartbeat_timeout": "a number of seconds",
     "lanes": "'name:cpu[:priority], ...' or a mapping of lane names to {cpu, priority}",

@@ -59,7 +59,7 @@ import struct
 import sys
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from typing import TYPE_CHECKING, Any
 
 from .._core._errors import RtcfError
@@ -80,7 +80,7 @@ from .._core._timing import (
 )
 from .._runtime._doorbell import Doorbell, RungMailbox
 from .._runtime._health import health
-from .._runtime._port_channels import MappedPort, read_record
+from .._runtime._port_channels import MailboxFanOut, MappedPort, read_record
 from ._face import rosconsole_logger_name
 
 if TYPE_CHECKING:
@@ -236,7 +236,7 @@ class Ros1Bridge:
         self._publishers: dict[str, tuple[Any, Any]] = {}  # topic: (class and QoS, topic)
         self._subscribers: dict[str, tuple[Any, Any]] = {}
         self._outputs: list[tuple[Ring, Any, Any, str]] = []  # ring, publisher, raw msg, kind
-        self._inputs: dict[str, tuple[Mailbox, Callable[[bytes], bytes | None]]] = {}
+        self._inputs: dict[str, tuple[Mailbox | MailboxFanOut, Callable[..., bytes | None]]] = {}
         self._clock_sub: Any = None
         self._clock_box: RungMailbox | None = None
         self._info_pub: Any = None
@@ -374,7 +374,9 @@ class Ros1Bridge:
             face.close()
 
     # -- per run -------------------------------------------------------------------
-    def open(self, ports: list[MappedPort], channels: dict[str, Ring | Mailbox]) -> None:
+    def open(
+        self, ports: list[MappedPort], channels: Mapping[str, Ring | Mailbox | MailboxFanOut]
+    ) -> None:
         rospy = self._rospy
         peers: list[tuple[Any, str, str]] = []
         with self._lock:
@@ -403,7 +405,7 @@ class Ros1Bridge:
                     self._outputs.append((channel, pub, raw_class(cls)(), port.kind))
                     peers.append((pub, port.topic, "sub"))
                 else:
-                    assert isinstance(channel, Mailbox)
+                    assert isinstance(channel, Mailbox | MailboxFanOut)
 
                     def convert(
                         buff: bytes, kind: str = port.kind, cls: type = cls

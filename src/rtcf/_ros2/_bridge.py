@@ -26,7 +26,7 @@ import json
 import struct
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from typing import TYPE_CHECKING, Any
 
 from .._core._errors import RtcfError
@@ -44,7 +44,7 @@ from .._core._timing import (
 )
 from .._runtime._doorbell import Doorbell, RungMailbox
 from .._runtime._health import health
-from .._runtime._port_channels import MappedPort, read_record
+from .._runtime._port_channels import MailboxFanOut, MappedPort, read_record
 from ._face import ComponentFace, read_only, ros_logger_name, ros_value
 
 if TYPE_CHECKING:
@@ -214,7 +214,9 @@ class Ros2Bridge:
             pub.publish(prefix + data[at : at + ITERATION_INFO_BYTES])
 
     # -- per run -------------------------------------------------------------------
-    def open(self, ports: list[MappedPort], channels: dict[str, Ring | Mailbox]) -> None:
+    def open(
+        self, ports: list[MappedPort], channels: Mapping[str, Ring | Mailbox | MailboxFanOut]
+    ) -> None:
         with self._lock:
             self._open = True
             for port in ports:
@@ -231,7 +233,7 @@ class Ros2Bridge:
 
                     self._outputs.append((channel, pub, convert))
                 else:
-                    assert isinstance(channel, Mailbox)
+                    assert isinstance(channel, Mailbox | MailboxFanOut)
                     self._subscriptions.append(
                         self.node.create_subscription(
                             cls,
@@ -242,7 +244,9 @@ class Ros2Bridge:
                         )
                     )
 
-    def _feeder(self, port: MappedPort, box: Mailbox) -> Callable[[Any], None]:
+    def _feeder(
+        self, port: MappedPort, box: Mailbox | MailboxFanOut
+    ) -> Callable[[Any], None]:
         kind = port.kind
 
         def on_message(msg: Any) -> None:

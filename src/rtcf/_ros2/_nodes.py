@@ -234,7 +234,8 @@ def runner_main(argv: list[str] | None = None) -> int:
         launchers[spec.full_name] = launcher
         if launcher:  # it called us, so it exists even if the graph lags behind
             presence.seen.add(launcher)
-        _say(name, f"loaded {spec.full_name} ({spec.module}.{spec.class_name})")
+        _say(name, f"loaded {spec.full_name} ({spec.module}.{spec.class_name})"
+                   f"{runner.lane_said(spec.full_name)}")
         return json.dumps(runner.components[spec.full_name])
 
     def unloaded(full: str) -> str:

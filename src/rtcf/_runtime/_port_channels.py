@@ -70,6 +70,19 @@ def mapped_ports(
     return out
 
 
+class MailboxFanOut:
+    """A mapped input that several lanes read: the bridge's one subscription writes
+    each message into every lane's mailbox."""
+
+    def __init__(self, boxes: list[Mailbox]) -> None:
+        self.boxes = boxes
+        self.size = min(b.size for b in boxes)
+
+    def write(self, payload: bytes) -> None:
+        for box in self.boxes:
+            box.write(payload)
+
+
 def segment_size(ports: list[MappedPort]) -> int:
     return max(64, sum(p.nbytes for p in ports))
 

@@ -21,7 +21,7 @@ import subprocess
 import sys
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from multiprocessing.connection import Connection
 from typing import Any, Protocol
@@ -58,7 +58,7 @@ from .._core._tunables import (
 from ._doorbell import Doorbell, RungMailbox
 from ._heap import fill_numpy_cache
 from ._lanes import LaneLayout, abort_all, init_words, layout, reset_stop
-from ._port_channels import OUTPUT_RING_RECORDS, MappedPort, segment_size
+from ._port_channels import OUTPUT_RING_RECORDS, MailboxFanOut, MappedPort, segment_size
 from ._recording import RecordedTopic, RecordingDrain, RecordSink, relaid
 from ._recording import segment_size as recording_segment_size
 from ._shm import Segment, outgoing, send_segments
@@ -166,6 +166,8 @@ class WorkerRunner:
         self.lane_placement: dict[str, str] = {}  # lane -> where it runs, said once
         self.say_lanes = True  # in the log at info level (rtcf launch says it itself)
         # a lane's worker rings the main lane's bridge after pushing outputs to publish
+        # and follows the /clock the main lane's bridge receives (use_sim_time)
+        self.clock_feed: _ClockFeed | None = None
         self.outputs_bell: Doorbell | None = None
 
     # -- process ---------------------------------------------------------------
@@ -178,7 +180,7 @@ class WorkerRunner:
         self._control = control
         self._ctl = control.buf[:CLOCK_MAILBOX_OFFSET].cast("q")
         if self.settings.use_sim_time:
-            if self.bridge is None:
+            if self.bridge is None and self.clock_feed is None:
                 raise RtcfError(
                     f"runner {self.name!r}: use_sim_time needs a middleware that publishes "
                     "/clock; run with --middleware ros2"
@@ -187,7 +189,12 @@ class WorkerRunner:
             self._clock_box = Mailbox.create(clock_view, 8)
             clock_view.release()
             self._clock_bell = Doorbell.create()
-            self.bridge.follow_clock(RungMailbox(self._clock_box, self._clock_bell))
+            mine = RungMailbox(self._clock_box, self._clock_bell)
+            if self.clock_feed is None:  # the main lane: the bridge's /clock feeds it
+                assert self.bridge is not None
+                self.clock_feed = _ClockFeed()
+                self.bridge.follow_clock(self.clock_feed)  # type: ignore[arg-type]
+            self.clock_feed.add(mine)
         log = self._segment(Ring.nbytes(self.log_capacity, LOG_RECORD_SIZE), "rtcf-log")
         self._log_ring = Ring.create(log.buf, self.log_capacity, LOG_RECORD_SIZE)
         # one segment, two rings: updates to the worker, lifecycle outcomes back
@@ -691,15 +698,20 @@ class WorkerRunner:
             if abort or self._ctl[CTL_STOP] != ABORT:
                 self._ctl[CTL_STOP] = ABORT if abort else STOP
             self._wake_clock()
-        if abort:  # (a normal stop reaches the other lanes through the main lane)
+        # a normal stop reaches the other lanes through the main lane, unless they
+        # sleep until /clock moves (which may have stopped): then it wakes them too
+        if abort or self.settings.use_sim_time:
             for worker in self._lanes.values():
-                worker.request_stop(abort=True)
+                worker.request_stop(abort=abort)
 
     def request_control(self) -> None:
         """End the loop after the iteration so a request can be served (it resumes after)."""
         if self._ctl is not None and self._ctl[CTL_STOP] not in (STOP, ABORT):
             self._ctl[CTL_STOP] = CONTROL
             self._wake_clock()
+        if self.settings.use_sim_time:  # lanes asleep until /clock moves
+            for worker in self._lanes.values():
+                worker.request_control()
 
     def _wake_clock(self) -> None:
         """A loop waiting for /clock time sees the stop word at once."""
@@ -956,6 +968,15 @@ class WorkerRunner:
 
 
     # -- lanes ----------------------------------------------------------------------
+    def lane_said(self, component: str) -> str:
+        """Where a component runs, for a "loaded" line: "" in the main lane, else
+        " in lane 'x' (pid, CPU, priority)"."""
+        full = component if component.startswith("/") else "/" + component
+        lane = self._lane_of.get(full)
+        if lane is None:
+            return ""
+        return f" in lane {lane!r} ({self.lane_placement.get(lane, '')})"
+
     def _owner_of(self, component: str) -> WorkerRunner:
         full = component if component.startswith("/") else "/" + component
         lane = self._lane_of.get(full)
@@ -967,11 +988,6 @@ class WorkerRunner:
         worker = self._lanes.get(lane)
         if worker is not None:
             return worker
-        if self.settings.use_sim_time:
-            raise ConfigurationError(
-                f"runner {self.name!r}: lane {lane!r}: lanes do not follow /clock yet "
-                "(use_sim_time); run without use_sim_time, or without lanes"
-            )
         names = [*self._lanes, lane]
         allowed = sorted(os.sched_getaffinity(0))
         mask, priority, how = lane_placement(self.settings, names, allowed)[lane]
@@ -989,6 +1005,7 @@ class WorkerRunner:
         )
         worker.lane = lane
         worker.outputs_bell = self.bridge.doorbell if self.bridge is not None else None
+        worker.clock_feed = self.clock_feed
         worker.transition_listeners = self.transition_listeners
         worker.start()
         self._lanes[lane] = worker
@@ -1158,12 +1175,12 @@ def _share_out(prepared: dict[str, dict[str, Any]]) -> None:
 
 def _bridged_channels(
     runs: dict[str, _Run],
-) -> tuple[list[MappedPort], dict[str, Ring | Mailbox]]:
+) -> tuple[list[MappedPort], dict[str, Ring | Mailbox | MailboxFanOut]]:
     """Every lane's mapped ports as one bridge sees them: an input several lanes read
     is one subscription that feeds each lane's mailbox."""
     ports: dict[str, MappedPort] = {}
     boxes: dict[str, list[Mailbox]] = {}
-    channels: dict[str, Any] = {}
+    channels: dict[str, Ring | Mailbox | MailboxFanOut] = {}
     for run in runs.values():
         for port in run.ports:
             channel = run.channels[port.topic]
@@ -1174,7 +1191,7 @@ def _bridged_channels(
                 channels[port.topic] = channel
             ports.setdefault(port.topic, port)
     for topic, found in boxes.items():
-        channels[topic] = found[0] if len(found) == 1 else _FanOut(found)
+        channels[topic] = found[0] if len(found) == 1 else MailboxFanOut(found)
     return list(ports.values()), channels
 
 
@@ -1210,20 +1227,23 @@ class _Run:
     done: dict[str, Any] | None = None
 
 
-class _FanOut:
-    """One subscription's messages into the mailbox of every lane that reads them
-    (what a bridge sees of a mapped input several lanes read)."""
+class _ClockFeed:
+    """Every /clock message into the mailbox of every lane's worker (use_sim_time);
+    a lane started later gets the newest at once."""
 
-    def __init__(self, boxes: list[Mailbox]) -> None:
-        self.boxes = boxes
-        self.size = min(b.size for b in boxes)
+    def __init__(self) -> None:
+        self.boxes: list[RungMailbox] = []
+        self.last: bytes | None = None
 
-    def write(self, payload: bytes) -> None:
+    def add(self, box: RungMailbox) -> None:
+        self.boxes.append(box)  # (atomic: the bridge's thread may be in write)
+        if self.last is not None:
+            box.write(self.last)
+
+    def write(self, data: bytes) -> None:
+        self.last = data
         for box in self.boxes:
-            box.write(payload)
-
-    def close(self) -> None:
-        pass  # each lane closes its own
+            box.write(data)
 
 
 class _LockedSink:
@@ -1271,7 +1291,9 @@ class Bridge(Protocol):
         """The runner's settings (QoS, iteration_info) and what introspection asks,
         before anything else."""
 
-    def open(self, ports: list[MappedPort], channels: dict[str, Ring | Mailbox]) -> None: ...
+    def open(
+        self, ports: list[MappedPort], channels: Mapping[str, Ring | Mailbox | MailboxFanOut]
+    ) -> None: ...
 
     def iteration_info(self, rows: Any) -> None:
         """Timing rows as they are drained (numpy int64, one row per iteration)."""

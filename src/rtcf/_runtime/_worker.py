@@ -342,7 +342,10 @@ class Worker:
         runner = self._runner()
         self._release_lanes()
         self._lane_seg = seg
-        link = LaneLink(seg.buf, layout, runner.lane or MAIN_LANE, simulated=self.simulated,
+        # on /clock time (use_sim_time) as on --sim: no real-time bound on a wait, and
+        # every lane waits for the others after each iteration (the same values)
+        link = LaneLink(seg.buf, layout, runner.lane or MAIN_LANE,
+                        simulated=self.simulated or self.settings.use_sim_time,
                         period_ns=runner.state.period_ns)
         link.bound(runner.state, self._stop(), runner.clock.now_ns)
         self.link = link
