@@ -10,6 +10,7 @@ fails or dies ends every lane, with one line naming it.
 from __future__ import annotations
 
 import csv
+import json
 import os
 import re
 import signal
@@ -270,3 +271,24 @@ def messages(path: Path) -> list[tuple[str, int, int, bytes]]:
             for _, c, m in make_reader(f).iter_messages()
             if not c.topic.endswith("/iteration_info")  # timing differs by lane
         )
+
+
+def test_a_report_of_lanes_has_each_lanes_timing(tmp_path):
+    launch = tmp_path / "let.launch"
+    launch.write_text(LET)
+    done = run_rtcf("launch", launch, "--duration", "1", "--report", tmp_path / "r")
+    assert done.returncode == 0, done.stderr
+    doc = json.loads((tmp_path / "r" / "timing.json").read_text())
+    lanes = doc["lanes"]
+    assert set(lanes) == {"main", "mpc"}
+    mpc = lanes["mpc"]
+    assert mpc["every"] == 4 and mpc["let_window_us"] == pytest.approx(20_000)
+    assert 40 <= mpc["iterations"] <= 51  # releases at 1, 5, 9, ... of 200 iterations
+    assert 9_000 <= mpc["calc_us"]["p50"] < 20_000  # 9 ms of CPU in each window
+    assert mpc["let_margin_us"]["p50"] == pytest.approx(20_000 - mpc["calc_us"]["p50"])
+    assert "/mpc" in mpc["components"] and "/mpc" not in doc["components"]  # main: top level
+    png = tmp_path / "r" / "timing.png"
+    if png.exists():  # matplotlib installed: one row of panels per lane
+        from matplotlib import image
+
+        assert abs(image.imread(png).shape[0] - (4.5 + 3.6) * 110) <= 3

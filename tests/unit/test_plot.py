@@ -108,3 +108,17 @@ def test_format_us() -> None:
     assert format_us(12.34) == "12.3"
     assert format_us(456.7) == "457"
     assert format_us(1234.0) == "1234"
+
+
+def test_each_lane_gets_a_row_of_its_own(tmp_path: Path) -> None:
+    pytest.importorskip("matplotlib")
+    calc, jitter = realistic()
+    one = LogHistogram()
+    one.add_one(4_000_000)
+    out = plot_timing(
+        tmp_path / "timing.png", calc, jitter, title="1 kHz loop and an MPC",
+        lanes=[("lane right (lock step)", calc, jitter), ("lane mpc (LET, every 4)", one, one)],
+    )
+    width, height = image_size(out)
+    assert abs(width - 11 * 110) <= 3
+    assert abs(height - (4.5 + 2 * 3.6) * 110) <= 3  # two more rows of panels

@@ -217,3 +217,26 @@ def test_a_slow_components_tunable_applies_at_its_next_run() -> None:
     assert seen[6] == seen[7] == seen[8] == seen[5] and seen[9] == 0.0
     assert runner.describe_component("/cascade/position_controller")["every"] == 4
     runner.shutdown()
+
+
+def test_the_rates_table_has_a_lane_column_and_costs_the_longest_lane() -> None:
+    from rtcf._core._rates import plan_table
+
+    lines = plan_table(
+        ["/a", "/b", "/c", "/mpc"],
+        [(1, 0), (2, 0), (1, 0), (4, 1)],
+        [20.0, 30.0, 45.0, 4000.0],
+        1000.0,
+        ["main", "main", "right", "mpc"],
+    )
+    rows = {line.split()[0]: line.split() for line in lines if line.startswith("  /")}
+    assert rows["/c"][-1] == "right"
+    assert rows["/mpc"][-2:] == ["mpc", "(LET)"]
+    assert rows["/a"][-1] == "main"
+    # phase 0: main 20 + 30 = 50 against right's 45; phases 1-3: 45 (right) over 20
+    assert lines[-1].endswith("worst first: 50 in 2 phases (0, 2); 45 in 2 phases (1, 3)")
+    assert "LET lanes apart" in lines[-1]
+    # without lanes (or with the main lane only) the table is as before: costs add up
+    plain = plan_table(["/a", "/b"], [(1, 0), (2, 0)], [20.0, 30.0], 1000.0, ["main", "main"])
+    assert "lane" not in plain[2]
+    assert plain[-1].endswith("(cost_us), worst first: 50 in 1 phase (0); 20 in 1 phase (1)")

@@ -142,13 +142,15 @@ def plot_timing(
     title: str,
     subtitle: str = "",
     names: tuple[str, str] = ("calculation time", "wake-up jitter"),
+    lanes: list[tuple[str, LogHistogram, LogHistogram]] | None = None,
 ) -> Path:
     """Write a PNG with histograms of calculation time (left) and wake-up jitter (right).
 
     Counts are on a log scale; a dashed line marks the 99.9 % quantile and a solid
     one the maximum. ``subtitle`` is a smaller line under the title (machine,
-    conditions); ``names`` label the two panels. Raises :class:`RtcfError` if
-    matplotlib is not installed.
+    conditions); ``names`` label the two panels. ``lanes`` (a label, calculation and
+    jitter of each lane other than main) adds a row of both panels per lane, under
+    the main lane's. Raises :class:`RtcfError` if matplotlib is not installed.
     """
     try:
         import matplotlib  # noqa: F401  (only: is it installed?)
@@ -160,16 +162,24 @@ def plot_timing(
     from matplotlib.figure import Figure
 
     out = Path(path)
-    fig = Figure(figsize=(WIDTH_IN, HEIGHT_IN), dpi=DPI)
+    rows = [("", calc, jitter)] + [(f"{label}: ", c, j) for label, c, j in lanes or []]
+    if lanes:
+        rows[0] = ("main lane: ", calc, jitter)
+    n = len(rows)
+    height = HEIGHT_IN + (n - 1) * (HEIGHT_IN - 0.9)
+    fig = Figure(figsize=(WIDTH_IN, height), dpi=DPI)
     FigureCanvasAgg(fig)
-    top = 0.80 if subtitle else 0.86
-    fig.subplots_adjust(left=0.065, right=0.985, bottom=0.12, top=top, wspace=0.2)
-    left, right = fig.subplots(1, 2)
-    _panel(left, calc, names[0], "tab:blue")
-    _panel(right, jitter, names[1], "tab:green")
-    fig.suptitle(title, fontsize=13, y=0.975)
+    head_in = (HEIGHT_IN * (1 - (0.80 if subtitle else 0.86)))  # the title's room
+    fig.subplots_adjust(left=0.065, right=0.985, bottom=0.55 / height,
+                        top=1 - head_in / height, wspace=0.2, hspace=0.45 if n > 1 else 0.2)
+    axes = fig.subplots(n, 2, squeeze=False)
+    for (prefix, c, j), (left, right) in zip(rows, axes, strict=True):
+        _panel(left, c, prefix + names[0], "tab:blue")
+        _panel(right, j, prefix + names[1], "tab:green")
+    fig.suptitle(title, fontsize=13, y=1 - 0.025 * HEIGHT_IN / height)
     if subtitle:
-        fig.text(0.5, 0.895, subtitle, ha="center", va="center", fontsize=9, color="0.3")
+        fig.text(0.5, 1 - 0.105 * HEIGHT_IN / height, subtitle, ha="center", va="center",
+                 fontsize=9, color="0.3")
     fig.savefig(out, dpi=DPI, format="png")
     fig.clear()
     return out

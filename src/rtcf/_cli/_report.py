@@ -8,6 +8,8 @@ import platform
 from pathlib import Path
 from typing import Any
 
+from .._core._histogram import LogHistogram
+from .._core._lane_names import MAIN_LANE
 from .._core._runner import RunResult
 from .._core._settings import RunnerSettings
 from .._runtime._realtime import kernel_preemption
@@ -213,6 +215,20 @@ def write_report(
                     f"mlockall {'on' if rt.get('mlockall') else 'off'}, "
                     f"load {m['load_1min']:.2f}"
                 ),
+                lanes=_lane_histograms(result),
             )
         )
     return written
+
+
+def _lane_histograms(result: RunResult) -> list[tuple[str, LogHistogram, LogHistogram]]:
+    """Each lane other than main (that ran): its label, calculation and jitter."""
+    out = []
+    for name, lane in result.lanes.items():
+        aggregate = lane.get("aggregate")
+        if name == MAIN_LANE or aggregate is None:
+            continue
+        every = lane.get("every", 1)
+        kind = f"LET, every {every}" if every > 1 else "lock step"
+        out.append((f"lane {name} ({kind})", aggregate.calc, aggregate.jitter))
+    return out

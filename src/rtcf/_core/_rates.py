@@ -143,15 +143,33 @@ def plan_table(
     rates: Sequence[tuple[int, int]],
     costs: Sequence[float],
     frequency: float,
+    lanes: Sequence[str] | None = None,
 ) -> list[str]:
     """The plan as text: one row per component, one column per phase of the
     hyperperiod (``x``: it runs in that iteration), then the cost of each phase
-    (declared, or measured), grouped, the worst first."""
+    (declared, or measured), grouped, the worst first.
+
+    With ``lanes`` (each component's; "main" for the main lane) and some lane other
+    than main, a lane column too; a phase then costs what its longest lock-step lane
+    costs (lanes run side by side), and a lane on logical execution time (a lane
+    other than main whose components run every N > 1) is left out of it."""
     h = 1
     for every, _ in rates:
         h = h * every // math.gcd(h, every)
     runs = [[(p - phase) % every == 0 for p in range(h)] for every, phase in rates]
-    cost = [sum(c for c, r in zip(costs, col, strict=True) if r) for col in zip(*runs, strict=True)]
+    lane_of = list(lanes) if lanes is not None and any(n != "main" for n in lanes) else None
+    if lane_of is None:
+        cost = [
+            sum(c for c, r in zip(costs, col, strict=True) if r) for col in zip(*runs, strict=True)
+        ]
+    else:
+        cost = []
+        for p in range(h):
+            per_lane: dict[str, float] = {}
+            for lane, (every, _), c, row in zip(lane_of, rates, costs, runs, strict=True):
+                if row[p] and (lane == "main" or every == 1):
+                    per_lane[lane] = per_lane.get(lane, 0.0) + c
+            cost.append(max(per_lane.values(), default=0.0))
     width = max(len(n) for n in names)
     lines = [
         f"rates: the schedule repeats every {h} iterations ({h / frequency * 1e3:g} ms); "
@@ -164,10 +182,18 @@ def plan_table(
         units = "".join(str(p % 10) for p in range(start, stop))
         lines.append(f"  {'phase':<{width}}  {ticks}".rstrip())
         header = "  every  phase  cost_us" if start == 0 else ""
+        if header and lane_of is not None:
+            header += "  lane"
         lines.append(f"  {'':<{width}}  {units}{header}")
-        for n, (every, phase), c, row in zip(names, rates, costs, runs, strict=True):
+        for k, (n, (every, phase), c, row) in enumerate(
+            zip(names, rates, costs, runs, strict=True)
+        ):
             cells = "".join("x" if r else "." for r in row[start:stop])
             extra = f"  {every:>5}  {phase:>5}  {c:>7.4g}" if start == 0 else ""
+            if extra and lane_of is not None:
+                lane = lane_of[k]
+                let = lane != "main" and every > 1
+                extra += f"  {lane}" + (" (LET)" if let else "")
             lines.append(f"  {n:<{width}}  {cells}{extra}")
     groups: dict[float, list[int]] = {}
     for p, c in enumerate(cost):
@@ -177,5 +203,6 @@ def plan_table(
         phases = groups[c]
         shown = ", ".join(map(str, phases[:4])) + (", ..." if len(phases) > 4 else "")
         parts.append(f"{c:.4g} in {len(phases)} phase{'s' if len(phases) > 1 else ''} ({shown})")
-    lines.append("  cost per iteration [us] (cost_us), worst first: " + "; ".join(parts))
+    what = "cost_us" if lane_of is None else "cost_us; its longest lane, LET lanes apart"
+    lines.append(f"  cost per iteration [us] ({what}), worst first: " + "; ".join(parts))
     return lines

@@ -1234,7 +1234,14 @@ class Runner:
         costs = [
             self._loaded[n].spec.rate.cost if n in self._loaded else 0.0 for n in self._schedule
         ]
-        return plan_table(self._schedule, self._rates, costs, self.settings.frequency)
+        lanes = [
+            lane_of(self._loaded[n].spec.lane) if n in self._loaded else self._foreign_lane(n)
+            for n in self._schedule
+        ]
+        return plan_table(self._schedule, self._rates, costs, self.settings.frequency, lanes)
+
+    def _foreign_lane(self, name: str) -> str:
+        return next((m.lane for m in self._foreign_members if m.name == name), MAIN_LANE)
 
     @property
     def schedule(self) -> list[str]:
