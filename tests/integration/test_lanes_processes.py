@@ -286,9 +286,14 @@ def test_a_report_of_lanes_has_each_lanes_timing(tmp_path):
     assert 40 <= mpc["iterations"] <= 51  # releases at 1, 5, 9, ... of 200 iterations
     assert 9_000 <= mpc["calc_us"]["p50"] < 20_000  # 9 ms of CPU in each window
     assert mpc["let_margin_us"]["p50"] == pytest.approx(20_000 - mpc["calc_us"]["p50"])
-    assert "/mpc" in mpc["components"] and "/mpc" not in doc["components"]  # main: top level
+    assert "/mpc" in mpc["components"] and "/mpc" not in lanes["main"]["components"]
+    # the top level: the loop as a whole (here the main lane: the other is on LET),
+    # and every lane's components (for measured costs)
+    assert {"/src", "/sink", "/mpc"} <= set(doc["components"])
+    assert doc["calc_us"]["p50"] < 5_000 and doc["iterations"] == 200
+    assert doc["calc_us"]["max"] == pytest.approx(lanes["main"]["calc_us"]["max"])
     png = tmp_path / "r" / "timing.png"
-    if png.exists():  # matplotlib installed: one row of panels per lane
+    if png.exists():  # matplotlib installed: the loop's panels, then a row per lane
         from matplotlib import image
 
-        assert abs(image.imread(png).shape[0] - (4.5 + 3.6) * 110) <= 3
+        assert abs(image.imread(png).shape[0] - (4.5 + 2 * 3.6) * 110) <= 3

@@ -209,3 +209,30 @@ def test_iteration_info_doubles_are_what_float_arithmetic_on_each_row_gives() ->
     )
     assert data == expected  # to the bit
     assert iteration_info_doubles(rows[:0], offset) == b""
+
+
+def test_a_loop_span_joins_the_lanes_rows_by_iteration() -> None:
+    import numpy as np
+
+    from rtcf._core._timing import COL_CALC, COL_ITERATION, COL_JITTER, COL_SCHEDULED, LoopSpan
+
+    def rows(*entries: tuple[int, int, int, int]) -> np.ndarray:
+        out = np.zeros((len(entries), 6), dtype=np.int64)
+        for k, (i, deadline, jitter, calc) in enumerate(entries):
+            out[k, [COL_ITERATION, COL_SCHEDULED, COL_JITTER, COL_CALC]] = i, deadline, jitter, calc
+        return out
+
+    span = LoopSpan(2, 1_000_000)
+    # iteration 0: main starts 10 µs late and takes 100; the other starts 30 late, 200
+    span.add(rows((0, 0, 10_000, 100_000), (1, 1_000_000, 5_000, 100_000)))
+    assert span.rows == 0  # nothing is whole before every lane said its part
+    span.add(rows((0, 0, 30_000, 200_000), (1, 1_000_000, 20_000, 990_000)))
+    assert span.rows == 2
+    assert span.jitter.min == 5_000 and span.jitter.max == 10_000  # the first start
+    assert span.calc.min == 220_000  # from 10 µs to 230 µs
+    assert span.calc.max == 1_005_000  # 1005 to 2010 µs: past the next deadline
+    assert span.overruns == 1
+    # a lane whose row was dropped: the iteration is given up on, not kept for ever
+    span.add(rows(*[(i, i * 1_000_000, 0, 1) for i in range(2, 2 + LoopSpan.OPEN_MAX + 1)]))
+    assert span.incomplete == LoopSpan.OPEN_MAX // 2
+    assert span.rows == 2

@@ -149,8 +149,8 @@ def plot_timing(
     Counts are on a log scale; a dashed line marks the 99.9 % quantile and a solid
     one the maximum. ``subtitle`` is a smaller line under the title (machine,
     conditions); ``names`` label the two panels. ``lanes`` (a label, calculation and
-    jitter of each lane other than main) adds a row of both panels per lane, under
-    the main lane's. Raises :class:`RtcfError` if matplotlib is not installed.
+    jitter of each lane) adds a row of both panels per lane, under the loop's.
+    Raises :class:`RtcfError` if matplotlib is not installed.
     """
     try:
         import matplotlib  # noqa: F401  (only: is it installed?)
@@ -164,7 +164,7 @@ def plot_timing(
     out = Path(path)
     rows = [("", calc, jitter)] + [(f"{label}: ", c, j) for label, c, j in lanes or []]
     if lanes:
-        rows[0] = ("main lane: ", calc, jitter)
+        rows[0] = ("loop (all lanes in lock step): ", calc, jitter)
     n = len(rows)
     height = HEIGHT_IN + (n - 1) * (HEIGHT_IN - 0.9)
     fig = Figure(figsize=(WIDTH_IN, height), dpi=DPI)

@@ -9,7 +9,6 @@ from pathlib import Path
 from typing import Any
 
 from .._core._histogram import LogHistogram
-from .._core._lane_names import MAIN_LANE
 from .._core._runner import RunResult
 from .._core._settings import RunnerSettings
 from .._runtime._realtime import kernel_preemption
@@ -41,9 +40,10 @@ def format_summary(result: RunResult, settings: RunnerSettings, wall_s: float) -
     def row(label: str, stats: dict[str, float]) -> str:
         return f"  {label:<28}" + "".join(f"{stats.get(c, float('nan')):>10.1f}" for c in _COLUMNS)
 
+    lanes = len(result.lanes) > 1  # then the loop as a whole here, each lane below
     lines.append(row("wake-up jitter", t.jitter_us))
     lines.append(row("calculation (iteration)", t.calc_us))
-    for name, stats in t.components_us.items():
+    for name, stats in t.components_us.items() if not lanes else ():
         lines.append(row(f"  {name}", stats))
     # several rates: per phase of the hyperperiod; beyond a few, the most expensive
     phases = sorted(t.phases_us.items(), key=lambda kv: -kv[1].get("max", 0.0))
@@ -222,11 +222,13 @@ def write_report(
 
 
 def _lane_histograms(result: RunResult) -> list[tuple[str, LogHistogram, LogHistogram]]:
-    """Each lane other than main (that ran): its label, calculation and jitter."""
+    """Each lane (with lanes): its label, calculation and jitter."""
+    if len(result.lanes) < 2:
+        return []
     out = []
     for name, lane in result.lanes.items():
         aggregate = lane.get("aggregate")
-        if name == MAIN_LANE or aggregate is None:
+        if aggregate is None:
             continue
         every = lane.get("every", 1)
         kind = f"LET, every {every}" if every > 1 else "lock step"

@@ -231,6 +231,57 @@ class TimingAggregate:
         }
 
 
+class LoopSpan:
+    """The loop as a whole when lanes run it side by side: per iteration, from the
+    first lock-step lane's start to the last one's end (its calculation), and from
+    the deadline to the first start (its wake-up jitter). Fed with every lock-step
+    lane's timing rows, from the threads that drain them."""
+
+    OPEN_MAX = 4096  # iterations some lane has not reported yet (its rows dropped)
+
+    def __init__(self, lanes: int, period_ns: int) -> None:
+        import threading
+
+        from ._histogram import LogHistogram
+
+        self.lanes = lanes
+        self.period_ns = period_ns
+        self.jitter = LogHistogram()
+        self.calc = LogHistogram()
+        self.rows = 0  # iterations every lane reported
+        self.overruns = 0  # among them: the last lane ended past the next deadline
+        self.incomplete = 0  # iterations given up on (a lane's row was dropped)
+        self._open: dict[int, list[int]] = {}  # iteration -> [lanes, start, end, deadline]
+        self._lock = threading.Lock()
+
+    def add(self, rows: Any) -> None:
+        """One lane's batch of timing rows (numpy int64, n x columns)."""
+        starts = rows[:, COL_SCHEDULED] + rows[:, COL_JITTER]
+        ends = starts + rows[:, COL_CALC]
+        with self._lock:
+            for i, start, end, deadline in zip(
+                rows[:, COL_ITERATION].tolist(), starts.tolist(), ends.tolist(),
+                rows[:, COL_SCHEDULED].tolist(), strict=True,
+            ):
+                entry = self._open.get(i)
+                if entry is None:
+                    entry = self._open[i] = [0, start, end, deadline]
+                entry[0] += 1
+                entry[1] = min(entry[1], start)
+                entry[2] = max(entry[2], end)
+                if entry[0] == self.lanes:
+                    del self._open[i]
+                    self.calc.add_one(entry[2] - entry[1])
+                    self.jitter.add_one(entry[1] - entry[3])
+                    self.rows += 1
+                    if entry[2] > entry[3] + self.period_ns:
+                        self.overruns += 1
+            if len(self._open) > self.OPEN_MAX:
+                for i in sorted(self._open)[: self.OPEN_MAX // 2]:
+                    del self._open[i]
+                    self.incomplete += 1
+
+
 @dataclass
 class TimingSummary:
     iterations: int

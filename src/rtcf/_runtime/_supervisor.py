@@ -45,7 +45,14 @@ from .._core._params import ParameterStore
 from .._core._rings import Mailbox, Ring
 from .._core._runner import ComponentSpec, RunResult
 from .._core._settings import RunnerSettings, lane_placement
-from .._core._timing import FIXED_COLUMNS, TimingAggregate, TimingSummary, ring_capacity, row_size
+from .._core._timing import (
+    FIXED_COLUMNS,
+    LoopSpan,
+    TimingAggregate,
+    TimingSummary,
+    ring_capacity,
+    row_size,
+)
 from .._core._tunables import (
     LIFECYCLE,
     LOG_LEVEL,
@@ -1083,8 +1090,16 @@ class WorkerRunner:
         opened = False
         main: RunResult | None = None
         try:
+            lay = self._lane_layout
+            every = {n: k[0] for n, k in zip(lay.lanes, lay.kinds, strict=True)} if lay else {}
+            lock_step = [n for n in workers if every.get(n, 1) == 1]
+            span = LoopSpan(len(lock_step), self.settings.period_ns)
             for name, w in workers.items():
                 runs[name] = w._open_run(prepared[name], sink, ros_offset)
+                if name in lock_step:
+                    runs[name].aggregate.on_rows = _chain_rows(
+                        runs[name].aggregate.on_rows, span.add
+                    )
             ports, channels = _bridged_channels(runs)
             if self.bridge is not None and ports:
                 self.bridge.open(ports, channels)
@@ -1125,8 +1140,7 @@ class WorkerRunner:
         if failures:
             raise min(failures, key=lambda f: f[0])[1]
         assert main is not None
-        lay = self._lane_layout
-        every = {n: k[0] for n, k in zip(lay.lanes, lay.kinds, strict=True)} if lay else {}
+        results = {MAIN_LANE: dataclasses.replace(main, lanes=dict(main.lanes)), **results}
         for name, result in results.items():
             main.lanes[name] = {
                 "every": every.get(name, 1),
@@ -1138,10 +1152,17 @@ class WorkerRunner:
                 "placement": self.lane_placement.get(name, ""),
                 **result.lanes.get(name, {}),
             }
+            if name == MAIN_LANE:
+                cpus = (main.realtime or {}).get("cpu_affinity")
+                where = (f"CPU{'s' if len(cpus) > 1 else ''} {', '.join(map(str, cpus))}"
+                         if cpus else "not pinned")
+                main.lanes[name]["placement"] = f"pid {self.pid}, {where} (the runner's)"
+                continue
             main.faults += result.faults
             main.safe_stops += result.safe_stops
             if result.stopped_by == "abort" and main.stopped_by != "abort":
                 main.stopped_by = "abort"
+        main.aggregate, main.timing = _whole_loop(main, results, span, lock_step)
         for name, info in main.lanes.items():
             for label, counts in info.get("handovers", {}).items():
                 said = ", ".join(f"{n} {k.replace('_', ' ')}" for k, n in counts.items())
@@ -1328,6 +1349,40 @@ def _both(
 
 def _note(level: int, text: str) -> LogRecord:
     return LogRecord(level, "rt_runner", text)
+
+
+def _chain_rows(
+    previous: Callable[[Any], None] | None, then: Callable[[Any], None]
+) -> Callable[[Any], None]:
+    def on_rows(rows: Any) -> None:
+        if previous is not None:
+            previous(rows)
+        then(rows)
+
+    return on_rows
+
+
+def _whole_loop(
+    main: RunResult, results: dict[str, RunResult], span: LoopSpan, lock_step: list[str]
+) -> tuple[TimingAggregate | None, TimingSummary]:
+    """The run's top-level timing with lanes: the loop as a whole (from the first
+    lock-step lane's start to the last one's end), every lane's components (the
+    main lane's handovers too: how long it waited for the others)."""
+    if main.aggregate is None or main.simulated:
+        return main.aggregate, main.timing
+    whole = TimingAggregate()
+    whole.calc, whole.jitter = span.calc, span.jitter
+    whole.rows, whole.overruns = span.rows, span.overruns
+    whole.dropped = main.aggregate.dropped
+    whole.components = dict(main.aggregate.components)
+    for name, result in results.items():
+        if name != MAIN_LANE and result.aggregate is not None:
+            for label, hist in result.aggregate.components.items():
+                if not label.startswith("@"):
+                    whole.components.setdefault(label, hist)
+    if len(lock_step) == 1:  # the other lanes are on LET: the loop is the main lane
+        whole.phases = main.aggregate.phases
+    return whole, whole.summary(main.timing.iterations, span.overruns)
 
 
 def _with_timing_rows(
