@@ -11,9 +11,12 @@ from rosgraph_msgs.msg import Clock
 from std_msgs.msg import Float64, Int64
 
 from .._proc import read_rest, wait_for
+from . import test_lifecycle, test_parameters
+from .conftest import start_rtcf
 from .test_node_args import CLOCKED, clock_msg
 from .test_nodes import STARTED, end, runner, start
-from .test_topics import spin_until
+from .test_topics import spin_until, wait_running
+from .test_topics import stop as stop_rtcf
 
 pytestmark = pytest.mark.integration
 
@@ -99,3 +102,49 @@ def test_lanes_follow_clock_with_use_sim_time(ros_node, tmp_path):
         end(*STARTED)
         STARTED.clear()
     assert r.returncode == 0, err
+
+
+@pytest.fixture
+def tuned_in_a_lane(tmp_path):
+    text = test_parameters.LAUNCH.replace(
+        '<param name="gain" value="2.0"/>',
+        '<param name="gain" value="2.0"/>\n      <param name="lane" value="tuning"/>',
+    )
+    assert 'value="tuning"' in text
+    path = tmp_path / "tuned.launch"
+    path.write_text(text)
+    proc = start_rtcf("launch", path, "--middleware", "ros2")
+    try:
+        wait_running(proc)
+        yield proc
+    finally:
+        if proc.poll() is None:
+            stop_rtcf(proc)
+
+
+def test_a_components_parameters_and_logger_level_in_a_lane(ros_node, tuned_in_a_lane):
+    # as in the main lane: the value set reaches the lane's worker between iterations,
+    # the level filters there, and its mapped output comes from the lane
+    test_parameters.test_a_parameter_set_while_running_changes_the_output(
+        ros_node, tuned_in_a_lane
+    )
+    test_parameters.test_a_logger_level_change_filters_in_the_worker(ros_node, tuned_in_a_lane)
+
+
+def test_a_lifecycle_round_trip_of_a_component_in_a_lane(ros_node, tmp_path):
+    text = test_lifecycle.LAUNCH.replace(
+        '<remap from="out1" to="/ros/lc_out"/>',
+        '<remap from="out1" to="/ros/lc_out"/>\n      <param name="lane" value="relay"/>',
+    )
+    assert 'value="relay"' in text
+    path = tmp_path / "lc.launch"
+    path.write_text(text)
+    watch = test_lifecycle.Watch(ros_node, "/ros/lc_out", "/lc/relay")
+    proc = start_rtcf("launch", path, "--middleware", "ros2")
+    try:
+        said = wait_running(proc)
+        test_lifecycle.round_trip(ros_node, "/lc/relay", watch)
+    finally:
+        _, err = stop_rtcf(proc)
+    assert "relay (lock step; pid" in said + err
+    assert "[/lc/relay]: lifecycle: deactivate: active -> inactive" in err
