@@ -206,6 +206,39 @@ def test_max_let_overruns_stops_every_lane_through_safe_stop(tmp_path):
     assert marker.read_text() == "0"  # the main lane's hardware interface stopped safely
     assert rtcf_shm_names() == []
 
+LET_FALLBACK = """
+  <node name="src" pkg="rtcf" type="rt_launcher" args="rtcf_examples Sine">
+    <remap from="out" to="/x"/>
+  </node>
+  <node name="mpc" pkg="rtcf" type="rt_launcher" args="rtcf_examples Busy">
+    <param name="every" value="4"/><param name="cost_us" value="25000"/>
+    <param name="lane" value="plan"/><remap from="in_port" to="/x"/>
+    <remap from="out_port" to="/u"/>
+    <param name="on_error" value="deactivate"/><param name="fallback" value="backup"/>
+  </node>
+  <node name="backup" pkg="rtcf" type="rt_launcher" args="rtcf_examples Busy">
+    <param name="every" value="4"/><param name="cost_us" value="500"/>
+    <param name="lane" value="plan"/><remap from="in_port" to="/x"/>
+    <remap from="out_port" to="/u"/>
+  </node>"""
+
+
+def test_past_max_let_overruns_the_components_on_error_policy_applies(tmp_path):
+    # an MPC that never fits its window, deactivated after the third overrun; a
+    # cheaper planner in its lane takes over, and the run goes on to its end
+    path = write_launch(tmp_path, LET_FALLBACK, runner_xml(max_let_overruns=2))
+    proc = start("launch", path, "--duration", "2")
+    out, err = read_rest(proc, 60)
+    assert proc.returncode == 0, err
+    assert re.search(
+        r"fault: component '/mpc': watchdog max_let_overruns=2: 3 windows of logical "
+        r"execution time not finished in time, the last released at iteration \d+; took "
+        r"out of the schedule: /mpc; /backup took over its outputs \(fallback\)", err), err
+    assert "ran 400 iterations" in out
+    # the lane skipped only the releases the MPC overran into: the backup fits
+    skipped = re.search(r"lane 'plan': (\d+) releases skipped", err)
+    assert skipped is not None and int(skipped.group(1)) <= 6, err
+
 HANG = """
   <node name="hw" pkg="rtcf" type="rt_launcher" args="rtcf_fault_components SafeHardware -f">
     <param name="path" value="{path}"/>

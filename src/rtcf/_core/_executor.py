@@ -333,7 +333,8 @@ class Executor:
                             commit()
                         count += 1
                         raise WatchdogTripped(
-                            "max_let_overruns", max_let, let_overruns, row[b + COL_ITERATION]
+                            "max_let_overruns", max_let, let_overruns, row[b + COL_ITERATION],
+                            resume=i,
                         )
                     streak += 1
                     if i >= window_end:

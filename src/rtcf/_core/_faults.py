@@ -39,6 +39,7 @@ DEACTIVATE = "deactivate"
 RESTART = "restart"
 POLICIES = (STOP, DEACTIVATE, RESTART)
 DEFAULT_MAX_RESTARTS = 3
+LET_OVERRUNS = "watchdog max_let_overruns"  # how a Fault of a LET lane's windows starts
 
 
 @dataclass(frozen=True)
@@ -92,12 +93,17 @@ def _whole(value: Any) -> int:
 class WatchdogTripped(Exception):
     """A runner watchdog fired: ``limit`` (its parameter), the measured value, where."""
 
-    def __init__(self, limit: str, allowed: int, measured: int, iteration: int) -> None:
+    def __init__(
+        self, limit: str, allowed: int, measured: int, iteration: int, resume: int = -1
+    ) -> None:
         super().__init__(limit, allowed, measured, iteration)
         self.limit = limit
         self.allowed = allowed
         self.measured = measured
         self.iteration = iteration
+        # max_let_overruns: the iteration before the next release on the grid (where
+        # the lane goes on if its components' on_error policy contains the overruns)
+        self.resume = resume
 
     def describe(self) -> str:
         what = {
@@ -127,8 +133,11 @@ class Fault:
         return asdict(self)
 
     def describe(self) -> str:
-        text = f"component {self.component!r}: update() raised {self.error} at iteration "
-        text += f"{self.iteration}; "
+        if self.error.startswith(LET_OVERRUNS):  # its windows, not an exception
+            text = f"component {self.component!r}: {self.error}; "
+        else:
+            text = f"component {self.component!r}: update() raised {self.error} at iteration "
+            text += f"{self.iteration}; "
         if self.action == "restarted":
             return text + "restarted it (on_error restart)"
         out = ", ".join(self.taken_out)

@@ -146,6 +146,10 @@ class RunResult:
     lanes: dict[str, dict[str, Any]] = field(default_factory=dict)
 
 
+class _LetOverruns(Exception):
+    """What a LET lane's component "raised": its windows overran (max_let_overruns)."""
+
+
 class Runner:
     """Loads components and runs them sequentially in one loop at ``settings.frequency``."""
 
@@ -1013,6 +1017,12 @@ class Runner:
                     self._contain(failure)  # raises when the loop must end
                     if iterations is not None and ran >= iterations:
                         break
+                except WatchdogTripped as trip:
+                    if not self._contain_let_overruns(trip):
+                        raise
+                    ran += trip.iteration - first + 1
+                    if iterations is not None and ran >= iterations:
+                        break
         except WatchdogTripped as trip:
             self.drain_logs()
             self.safe_stop(trip.describe())
@@ -1064,7 +1074,10 @@ class Runner:
                 f"{exc} at iteration {failure.iteration}; the loop was stopped"
             ) from exc
         exc = failure.error
-        error = type(exc).__name__ + (f": {exc}" if str(exc) else "")
+        error = (
+            str(exc) if isinstance(exc, _LetOverruns)
+            else type(exc).__name__ + (f": {exc}" if str(exc) else "")
+        )
         policy = entry.spec.policy
         fatal = not isinstance(exc, Exception)  # SystemExit, KeyboardInterrupt: always stop
         if fatal or policy.on_error not in (ON_ERROR_DEACTIVATE, ON_ERROR_RESTART):
@@ -1081,6 +1094,30 @@ class Runner:
                 self._record(Fault(name, failure.iteration, error, "restarted"))
                 return
         self._take_out(name, failure.iteration, error, policy)
+
+    def _contain_let_overruns(self, trip: WatchdogTripped) -> bool:
+        """A lane on logical execution time overran more windows than
+        ``max_let_overruns``: its active components' ``on_error`` policies apply, as if
+        their update had failed (deactivate: out of the schedule, a fallback in the
+        lane takes over; restart). False when one of them stops the loop."""
+        if trip.limit != "max_let_overruns":
+            return False
+        names = [
+            n for n in self._schedule if n in self._loaded and self._loaded[n].state == ACTIVE
+        ]
+        policies = {self._loaded[n].spec.policy.on_error for n in names}
+        if not names or not policies <= {ON_ERROR_DEACTIVATE, ON_ERROR_RESTART}:
+            return False
+        self.state.iteration = trip.resume  # on the grid again: the next release
+        what = trip.describe().replace("; the loop was stopped", "")
+        for name in names:
+            if self._loaded[name].state != ACTIVE:  # taken out with another one
+                continue
+            self._contain(UpdateFailure(
+                self._schedule.index(name), trip.iteration, self.state.time_ns,
+                _LetOverruns(what),
+            ))
+        return True
 
     def _restart(self, name: str) -> bool:
         """Clean up, configure and start a component again (lifecycle transitions)."""
