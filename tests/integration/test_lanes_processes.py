@@ -284,6 +284,9 @@ def test_a_recording_of_lanes_is_the_sequential_recording_and_replays_to_itself(
         assert done.returncode == 0, done.stderr
     reference, split = messages(files["seq"]), messages(files["lanes"])
     assert len(reference) > 400
+    # the loop's timing, one row an iteration (from the first lane's start to the last
+    # one's end), as without lanes
+    assert iteration_infos(files["lanes"]) == iteration_infos(files["seq"]) == list(range(400))
     assert {"/cascade/torque", "/cascade/velocity_setpoint"} < {t for t, *_ in split}
     assert split == reference
     let = messages(files["let"])
@@ -292,6 +295,15 @@ def test_a_recording_of_lanes_is_the_sequential_recording_and_replays_to_itself(
     done = run_rtcf("replay", files["let"])
     assert done.returncode == 0, done.stderr
     assert messages(tmp_path / "let.replay.mcap") == let
+
+
+def iteration_infos(path: Path) -> list[int]:
+    """The iterations of the recorded ~/iteration_info messages."""
+    from mcap.reader import make_reader
+
+    with open(path, "rb") as f:
+        return [m.sequence for _, c, m in make_reader(f).iter_messages()
+                if c.topic.endswith("/iteration_info")]
 
 
 def messages(path: Path) -> list[tuple[str, int, int, bytes]]:

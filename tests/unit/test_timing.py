@@ -223,6 +223,8 @@ def test_a_loop_span_joins_the_lanes_rows_by_iteration() -> None:
         return out
 
     span = LoopSpan(2, 1_000_000)
+    joined: list[list[list[int]]] = []
+    span.on_rows = lambda rows: joined.append(rows.tolist())  # ~/iteration_info's rows
     # iteration 0: main starts 10 µs late and takes 100; the other starts 30 late, 200
     span.add(rows((0, 0, 10_000, 100_000), (1, 1_000_000, 5_000, 100_000)))
     assert span.rows == 0  # nothing is whole before every lane said its part
@@ -232,6 +234,7 @@ def test_a_loop_span_joins_the_lanes_rows_by_iteration() -> None:
     assert span.calc.min == 220_000  # from 10 µs to 230 µs
     assert span.calc.max == 1_005_000  # 1005 to 2010 µs: past the next deadline
     assert span.overruns == 1
+    assert joined == [[[0, 0, 10_000, 220_000, 0, 0], [1, 1_000_000, 5_000, 1_005_000, 1, 0]]]
     # a lane whose row was dropped: the iteration is given up on, not kept for ever
     span.add(rows(*[(i, i * 1_000_000, 0, 1) for i in range(2, 2 + LoopSpan.OPEN_MAX + 1)]))
     assert span.incomplete == LoopSpan.OPEN_MAX // 2

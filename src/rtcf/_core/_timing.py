@@ -253,11 +253,15 @@ class LoopSpan:
         self.incomplete = 0  # iterations given up on (a lane's row was dropped)
         self._open: dict[int, list[int]] = {}  # iteration -> [lanes, start, end, deadline]
         self._lock = threading.Lock()
+        # called with the loop's rows as a lane's own come (the same columns: iteration,
+        # deadline, jitter, calculation, overran): ~/iteration_info, a recording
+        self.on_rows: Any = None
 
     def add(self, rows: Any) -> None:
         """One lane's batch of timing rows (numpy int64, n x columns)."""
         starts = rows[:, COL_SCHEDULED] + rows[:, COL_JITTER]
         ends = starts + rows[:, COL_CALC]
+        whole: list[tuple[int, int, int, int, int, int]] = []
         with self._lock:
             for i, start, end, deadline in zip(
                 rows[:, COL_ITERATION].tolist(), starts.tolist(), ends.tolist(),
@@ -271,15 +275,21 @@ class LoopSpan:
                 entry[2] = max(entry[2], end)
                 if entry[0] == self.lanes:
                     del self._open[i]
-                    self.calc.add_one(entry[2] - entry[1])
-                    self.jitter.add_one(entry[1] - entry[3])
+                    calc, jitter = entry[2] - entry[1], entry[1] - entry[3]
+                    self.calc.add_one(calc)
+                    self.jitter.add_one(jitter)
                     self.rows += 1
-                    if entry[2] > entry[3] + self.period_ns:
-                        self.overruns += 1
+                    overran = int(entry[2] > entry[3] + self.period_ns)
+                    self.overruns += overran
+                    whole.append((i, entry[3], jitter, calc, overran, 0))
             if len(self._open) > self.OPEN_MAX:
                 for i in sorted(self._open)[: self.OPEN_MAX // 2]:
                     del self._open[i]
                     self.incomplete += 1
+            if whole and self.on_rows is not None:  # (in the lock: one caller at a time)
+                import numpy as np
+
+                self.on_rows(np.array(whole, dtype=np.int64))
 
 
 @dataclass

@@ -1096,6 +1096,8 @@ class WorkerRunner:
             span = LoopSpan(len(lock_step), self.settings.period_ns)
             for name, w in workers.items():
                 runs[name] = w._open_run(prepared[name], sink, ros_offset)
+                if name == MAIN_LANE:  # iteration_info and a recording's: the loop's rows
+                    span.on_rows, runs[name].aggregate.on_rows = runs[name].aggregate.on_rows, None
                 if name in lock_step:
                     runs[name].aggregate.on_rows = _chain_rows(
                         runs[name].aggregate.on_rows, span.add
