@@ -235,6 +235,12 @@ def test_a_loop_span_joins_the_lanes_rows_by_iteration() -> None:
     assert span.calc.max == 1_005_000  # 1005 to 2010 µs: past the next deadline
     assert span.overruns == 1
     assert joined == [[[0, 0, 10_000, 220_000, 0, 0], [1, 1_000_000, 5_000, 1_005_000, 1, 0]]]
+    # what the status line and /diagnostics show while it runs
+    main = TimingAggregate()
+    main.dropped = 3
+    live = span.snapshot(main)
+    assert (live.rows, live.overruns, live.dropped, live.calc.max) == (2, 1, 3, 1_005_000)
+    assert live.summary().calc_us["max"] == pytest.approx(1005.0, rel=0.01)
     # a lane whose row was dropped: the iteration is given up on, not kept for ever
     span.add(rows(*[(i, i * 1_000_000, 0, 1) for i in range(2, 2 + LoopSpan.OPEN_MAX + 1)]))
     assert span.incomplete == LoopSpan.OPEN_MAX // 2

@@ -257,6 +257,17 @@ class LoopSpan:
         # deadline, jitter, calculation, overran): ~/iteration_info, a recording
         self.on_rows: Any = None
 
+    def snapshot(self, like: TimingAggregate) -> TimingAggregate:
+        """The loop so far as an aggregate (for /diagnostics and the status line):
+        its calculation, jitter and overruns, ``like``'s components and dropped rows."""
+        out = TimingAggregate()
+        with self._lock:
+            out.calc, out.jitter = self.calc.copy(), self.jitter.copy()
+            out.rows, out.overruns = self.rows, self.overruns
+        out.components = dict(like.components)
+        out.dropped = like.dropped
+        return out
+
     def add(self, rows: Any) -> None:
         """One lane's batch of timing rows (numpy int64, n x columns)."""
         starts = rows[:, COL_SCHEDULED] + rows[:, COL_JITTER]

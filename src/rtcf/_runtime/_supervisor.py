@@ -172,6 +172,7 @@ class WorkerRunner:
         self._lane_runs = 0
         self.lane_placement: dict[str, str] = {}  # lane -> where it runs, said once
         self.say_lanes = True  # in the log at info level (rtcf launch says it itself)
+        self._span: LoopSpan | None = None  # while lanes run: the loop as a whole
         # a lane's worker rings the main lane's bridge after pushing outputs to publish
         # and follows the /clock the main lane's bridge receives (use_sim_time)
         self.clock_feed: _ClockFeed | None = None
@@ -299,7 +300,9 @@ class WorkerRunner:
                 now = time.monotonic()
                 if now - last_diagnostics >= DIAGNOSTICS_EVERY_S:
                     last_diagnostics = now
-                    self.bridge.diagnostics(self.name, self.live_status(), self._timing[2])
+                    self.bridge.diagnostics(
+                        self.name, self.live_status(), self._live_aggregate()
+                    )
             if not ready:
                 if self.process is not None and self.process.poll() is not None:
                     raise self._died(f"during {command!r}")
@@ -426,8 +429,14 @@ class WorkerRunner:
     def log_records_dropped(self) -> int:
         return self._log_ring.dropped if self._log_ring is not None else 0
 
-    def live_status(self) -> LiveStatus:
+    def _live_aggregate(self) -> TimingAggregate:
+        """The run's timing so far: with lanes the loop's as a whole."""
         aggregate = self._timing[2] if self._timing else TimingAggregate()
+        span = self._span
+        return span.snapshot(aggregate) if span is not None else aggregate
+
+    def live_status(self) -> LiveStatus:
+        aggregate = self._live_aggregate()
         started = self._events.get("started_at", time.monotonic())
         return LiveStatus(
             iterations=aggregate.rows,
@@ -1093,7 +1102,7 @@ class WorkerRunner:
             lay = self._lane_layout
             every = {n: k[0] for n, k in zip(lay.lanes, lay.kinds, strict=True)} if lay else {}
             lock_step = [n for n in workers if every.get(n, 1) == 1]
-            span = LoopSpan(len(lock_step), self.settings.period_ns)
+            span = self._span = LoopSpan(len(lock_step), self.settings.period_ns)
             for name, w in workers.items():
                 runs[name] = w._open_run(prepared[name], sink, ros_offset)
                 if name == MAIN_LANE:  # iteration_info and a recording's: the loop's rows
@@ -1135,6 +1144,7 @@ class WorkerRunner:
                     if main is None:
                         self.pump()
         finally:
+            self._span = None
             if opened and self.bridge is not None:
                 self.bridge.close_run()
             for name, run in runs.items():
