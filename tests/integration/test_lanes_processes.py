@@ -342,3 +342,47 @@ def test_a_report_of_lanes_has_each_lanes_timing(tmp_path):
         from matplotlib import image
 
         assert abs(image.imread(png).shape[0] - (4.5 + 2 * 3.6) * 110) <= 3
+
+
+EXTRA = """  <node name="extra" pkg="rtcf" type="rt_launcher" args="rtcf_examples Identity">
+    <remap from="in_port" to="/cascade/velocity"/><remap from="out_port" to="/extra"/>{lane}
+  </node>
+</launch>"""
+
+
+def test_a_load_between_runs_keeps_the_sequential_values(tmp_path):
+    # the motor reads the torque of the iteration before from the velocity controller
+    # in lane "inner"; a load into a new lane between two runs lays the handovers out
+    # anew, and the first delayed read after it still gets the value the last
+    # iteration left, as the sequential run does (recorded, not traced: a trace has
+    # the main lane receive every topic after each iteration, which would hide it)
+    from rtcf._launch._files import load_deployment
+    from rtcf._runtime._mcap import McapRecording
+    from rtcf._runtime._supervisor import WorkerRunner
+
+    text = (EXAMPLES / "cascade.launch").read_text()
+    recorded = {}
+    for name, lanes, lane in (("seq", {}, ""),
+                              ("lanes", {"velocity_controller": "inner"},
+                               '\n    <param name="lane" value="extra"/>')):
+        path = tmp_path / f"{name}.launch"
+        launch = with_lanes(text, lanes).replace("</launch>", EXTRA.format(lane=lane))
+        path.write_text(launch.replace('"mode" value="wait_for_components"',
+                                       '"mode" value="no_wait"'))
+        deployment = load_deployment([str(path)])
+        target = deployment.runner
+        specs = {s.full_name: s for s in target.components}
+        extra = specs.pop("/extra")
+        record = McapRecording(str(tmp_path / f"{name}.mcap"))
+        with WorkerRunner(target.settings, parameters=deployment.parameters,
+                          simulated=True) as runner:
+            for spec in specs.values():
+                runner.load(spec)
+            runner.run(300, record=record)  # the torque is no longer saturated here
+            runner.load(extra)
+            runner.run(50, record=record)
+            assert runner.shutdown() == []
+        record.finish({}, {})
+        recorded[name] = messages(tmp_path / f"{name}.mcap")
+    assert len(recorded["seq"]) > 1000
+    assert recorded["lanes"] == recorded["seq"]

@@ -228,6 +228,10 @@ class LaneLink:
         lane's ``iterations`` end every lane's run after the same iteration."""
         words, base, state = self.words, self.base, self.state
         assert state is not None
+        if state.iteration >= 0:  # it ran before: what its last iteration left, for a
+            for h in self.steps:  # delayed reader's first iteration (a new segment
+                if isinstance(h, _Send) and h.lock_step:  # after a load has none)
+                    h()
         words[base + L_LAST] = state.iteration
         words[base + L_NOW] = self.now() if self.simulated else 0
         if FENCED:
@@ -386,13 +390,14 @@ class _Handover:
 class _Send(_Handover):
     """After the producer (in every iteration): its slot, stamped with the version."""
 
-    __slots__ = ("encode", "too_big")
+    __slots__ = ("encode", "lock_step", "too_big")
 
     def __init__(self, link: LaneLink, step: Step, slot: Slot, channel: Channel,
                  entries: Sequence[tuple[int, memoryview]], encode: Callable[[Any], bytes]) -> None:
         super().__init__(link, step, slot, channel, entries)
         self.encode = encode
         self.too_big = channel.max_size
+        self.lock_step = step.kind == SEND  # (not a LET lane's output)
 
     def __call__(self) -> None:
         v = self.link.state.iteration
@@ -440,7 +445,9 @@ class _Recv(_Handover):
     def __call__(self) -> None:
         v = self.link.state.iteration - self.delayed
         words = self.words
-        if v < words[W_FIRST]:  # before the first value any lane handed over
+        # before the first value any lane handed over (a delayed reader's first one is
+        # what the iteration before the run left: its producer hands it over at begin)
+        if v < words[W_FIRST] - self.delayed:
             return
         w, payload = self.entries[(v // self.step) % DEPTH]
         if words[w] != v and not self._wait(v, w):
