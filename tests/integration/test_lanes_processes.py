@@ -239,6 +239,27 @@ def test_past_max_let_overruns_the_components_on_error_policy_applies(tmp_path):
     skipped = re.search(r"lane 'plan': (\d+) releases skipped", err)
     assert skipped is not None and int(skipped.group(1)) <= 6, err
 
+
+def test_past_max_let_overruns_a_restart_policy_restarts_then_gives_up(tmp_path):
+    body = LET_FALLBACK.replace(
+        '<param name="on_error" value="deactivate"/><param name="fallback" value="backup"/>',
+        '<param name="on_error" value="restart"/><param name="max_restarts" value="2"/>',
+    )
+    body = body[: body.index('  <node name="backup"')]  # the MPC alone in its lane
+    assert "restart" in body and "backup" not in body
+    path = write_launch(tmp_path, body, runner_xml(max_let_overruns=1))
+    proc = start("launch", path, "--duration", "2")
+    out, err = read_rest(proc, 60)
+    assert proc.returncode == 0, err
+    faults = [line for line in err.splitlines() if line.startswith("rtcf: fault:")]
+    # two windows overrun each time: restarted twice, then taken out for good
+    assert len(faults) == 3, err
+    for line in faults[:2]:
+        assert line.endswith("restarted it (on_error restart)"), line
+        assert "component '/mpc': watchdog max_let_overruns=1: 2 windows" in line, line
+    assert faults[2].endswith("took out of the schedule: /mpc"), faults[2]
+    assert "ran 400 iterations" in out
+
 HANG = """
   <node name="hw" pkg="rtcf" type="rt_launcher" args="rtcf_fault_components SafeHardware -f">
     <param name="path" value="{path}"/>
