@@ -352,6 +352,7 @@ def test_a_report_of_lanes_has_each_lanes_timing(tmp_path):
     assert 40 <= mpc["iterations"] <= 51  # releases at 1, 5, 9, ... of 200 iterations
     assert 9_000 <= mpc["calc_us"]["p50"] < 20_000  # 9 ms of CPU in each window
     assert mpc["let_margin_us"]["p50"] == pytest.approx(20_000 - mpc["calc_us"]["p50"])
+    assert mpc["let_overruns"] == {"/mpc": mpc["overruns"]}
     assert "/mpc" in mpc["components"] and "/mpc" not in lanes["main"]["components"]
     # the top level: the loop as a whole (here the main lane: the other is on LET),
     # and every lane's components (for measured costs)

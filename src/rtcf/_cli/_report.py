@@ -65,7 +65,8 @@ def format_summary(result: RunResult, settings: RunnerSettings, wall_s: float) -
         lines.append(
             f"  lane {name} ({lane.get('placement', '')}): {timing.iterations} "
             f"{'releases' if lane.get('every', 1) > 1 else 'iterations'}, "
-            f"overruns: {timing.overruns}"
+            f"{'LET overruns (windows not finished)' if lane.get('every', 1) > 1 else 'overruns'}"
+            f": {timing.overruns}"
         )
         lines.append(row("  wake-up jitter", timing.jitter_us))
         lines.append(row("  calculation", timing.calc_us))
@@ -141,6 +142,9 @@ def lane_document(
             },
         )
         every = out["every"]
+        if every > 1:  # a LET lane's windows it did not finish, counted per component
+            out["let_overruns"] = {name: timing.overruns for name in timing.components_us
+                                   if not name.startswith("@")}
         if every > 1 and timing.calc_us:
             window_us = every * 1e6 / settings.frequency
             out["let_window_us"] = window_us
