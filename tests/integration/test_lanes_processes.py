@@ -100,7 +100,8 @@ def test_fig1_in_two_lanes_gives_the_sequential_values(tmp_path, clock):
     assert any(float(r["/R3_G2H1"]) != 0.0 for r in split)  # values that moved
 
 
-def test_the_complex_architecture_in_three_lanes_gives_the_sequential_values(tmp_path):
+@pytest.mark.parametrize("clock", ["--sim", "real time"])
+def test_the_complex_architecture_in_three_lanes_gives_the_sequential_values(tmp_path, clock):
     # its second outputs all write /out2, which nothing reads: one topic each, so that
     # the trace has them all (one written in several lanes is not traced)
     text = re.sub(
@@ -109,16 +110,25 @@ def test_the_complex_architecture_in_three_lanes_gives_the_sequential_values(tmp
     )
     lanes = {"node_4": "b", "node_5": "b", "node_6": "b", "node_8": "c", "node_9": "c",
              "node_10": "c"}
-    reference = trace(tmp_path, "seq", text, "--sim", "--duration", "40")
-    split = trace(tmp_path, "lanes", with_lanes(text, lanes), "--sim", "--duration", "40")
+    args = ["--sim", "--duration", "40"]
+    run = trace
+    if clock == "real time":  # 40 iterations at 200 Hz rather than at its 1 Hz
+        text = text.replace('<rosparam param="frequency">1.0</rosparam>',
+                            '<rosparam param="frequency">200.0</rosparam>')
+        assert ">200.0<" in text
+        args, run = ["--duration", "0.2"], on_time_trace
+    reference = trace(tmp_path, "seq", text, *args)
+    split = run(tmp_path, "lanes", with_lanes(text, lanes), *args)
     assert_same(reference, split)
 
 
-def test_the_cascade_with_its_rates_in_two_lanes_gives_the_sequential_values(tmp_path):
+@pytest.mark.parametrize("clock", ["--sim", "real time"])
+def test_the_cascade_with_its_rates_in_two_lanes_gives_the_sequential_values(tmp_path, clock):
     text = (EXAMPLES / "cascade.launch").read_text()
-    reference = trace(tmp_path, "seq", text, "--sim", "--duration", "0.5")
-    split = trace(tmp_path, "lanes", with_lanes(text, {"velocity_controller": "inner"}),
-                  "--sim", "--duration", "0.5")
+    args = ["--duration", "0.5"] + (["--sim"] if clock == "--sim" else [])
+    run = trace if clock == "--sim" else on_time_trace
+    reference = trace(tmp_path, "seq", text, *args)
+    split = run(tmp_path, "lanes", with_lanes(text, {"velocity_controller": "inner"}), *args)
     assert_same(reference, split)
 
 
