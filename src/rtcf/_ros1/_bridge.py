@@ -78,7 +78,7 @@ from .._core._timing import (
     TimingAggregate,
     iteration_info_doubles,
 )
-from .._runtime._doorbell import Doorbell, RungMailbox
+from .._runtime._doorbell import ClockFeed, Doorbell
 from .._runtime._health import health
 from .._runtime._port_channels import MailboxFanOut, MappedPort, read_record
 from ._face import rosconsole_logger_name
@@ -238,7 +238,7 @@ class Ros1Bridge:
         self._outputs: list[tuple[Ring, Any, Any, str]] = []  # ring, publisher, raw msg, kind
         self._inputs: dict[str, tuple[Mailbox | MailboxFanOut, Callable[..., bytes | None]]] = {}
         self._clock_sub: Any = None
-        self._clock_box: RungMailbox | None = None
+        self._clock_box: ClockFeed | None = None
         self._info_pub: Any = None
         self._info_raw: Any = None
         self._info_prefix = b""
@@ -481,7 +481,7 @@ class Ros1Bridge:
         array.header.stamp = self._rospy.Time.now()
         self._diagnostics.publish(array)
 
-    def follow_clock(self, box: RungMailbox) -> None:
+    def follow_clock(self, box: ClockFeed) -> None:
         """use_sim_time: copy every /clock message (as int64 ns) into ``box``."""
         from rosgraph_msgs.msg import Clock
 

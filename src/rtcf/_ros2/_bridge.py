@@ -42,7 +42,7 @@ from .._core._timing import (
     TimingAggregate,
     iteration_info_doubles,
 )
-from .._runtime._doorbell import Doorbell, RungMailbox
+from .._runtime._doorbell import ClockFeed, Doorbell
 from .._runtime._health import health
 from .._runtime._port_channels import MailboxFanOut, MappedPort, read_record
 from ._face import ComponentFace, read_only, ros_logger_name, ros_value
@@ -285,7 +285,7 @@ class Ros2Bridge:
         array.header.stamp = self.node.get_clock().now().to_msg()
         self._diagnostics.publish(array)
 
-    def follow_clock(self, box: RungMailbox) -> None:
+    def follow_clock(self, box: ClockFeed) -> None:
         """use_sim_time: copy every /clock message (as int64 ns) into ``box``."""
         from rclpy.qos import QoSProfile, ReliabilityPolicy
         from rosgraph_msgs.msg import Clock

@@ -79,3 +79,22 @@ class RungMailbox:
     def write(self, data: bytes) -> None:
         self.box.write(data)
         self.bell.ring()
+
+
+class ClockFeed:
+    """Every /clock message (use_sim_time) into the mailbox of every lane's worker; a
+    lane started later gets the newest at once. What a bridge's ``follow_clock`` feeds."""
+
+    def __init__(self) -> None:
+        self.boxes: list[RungMailbox] = []
+        self.last: bytes | None = None
+
+    def add(self, box: RungMailbox) -> None:
+        self.boxes.append(box)  # (atomic: the bridge's thread may be in write)
+        if self.last is not None:
+            box.write(self.last)
+
+    def write(self, data: bytes) -> None:
+        self.last = data
+        for box in self.boxes:
+            box.write(data)

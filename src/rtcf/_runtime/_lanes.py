@@ -150,6 +150,10 @@ def abort_all(buf: memoryview) -> None:
 _yield = getattr(os, "sched_yield", lambda: time.sleep(0))
 
 
+def _nap() -> None:
+    time.sleep(50e-6)
+
+
 class LaneLink:
     """A worker's side of the lanes of a run: its handover steps, what it does after
     each iteration, and how it starts."""
@@ -162,6 +166,7 @@ class LaneLink:
         *,
         simulated: bool,
         period_ns: int,
+        nap: bool = False,
     ) -> None:
         self.layout = lanes
         self.lane = lane
@@ -169,6 +174,10 @@ class LaneLink:
         self.every, self.phase = lanes.kinds[self.index]
         self.simulated = simulated
         self.period_ns = period_ns
+        # how a wait lets others run: yield the CPU; or, where it has no bound while the
+        # lanes run at a real-time priority (/clock time), sleep, so that a spinning lane
+        # cannot starve the supervisor that brings /clock (nor a lane sharing its CPU)
+        self.pause: Callable[[], object] = _nap if nap else _yield
         self.buf = buf
         self.words: memoryview = buf.cast("q")
         self.base = HEADER_WORDS + LANE_WORDS * self.index  # this lane's words
@@ -333,7 +342,7 @@ class LaneLink:
                     cell[0] = words[W_REASON] or STOP
                     self.stopped_here = True
                     return
-                _yield()
+                self.pause()
         if FENCED:
             acquire_fence()
 
@@ -496,7 +505,7 @@ class _Recv(_Handover):
             if now() > limit:
                 self.late += 1
                 return False
-            _yield()
+            link.pause()
 
 
 class _LetIn(_Recv):

@@ -62,7 +62,7 @@ from .._core._tunables import (
     TunableSpec,
     encode_update,
 )
-from ._doorbell import Doorbell, RungMailbox
+from ._doorbell import ClockFeed, Doorbell, RungMailbox
 from ._heap import fill_numpy_cache
 from ._lanes import LaneLayout, abort_all, init_words, layout, reset_stop
 from ._port_channels import OUTPUT_RING_RECORDS, MailboxFanOut, MappedPort, segment_size
@@ -175,7 +175,7 @@ class WorkerRunner:
         self._span: LoopSpan | None = None  # while lanes run: the loop as a whole
         # a lane's worker rings the main lane's bridge after pushing outputs to publish
         # and follows the /clock the main lane's bridge receives (use_sim_time)
-        self.clock_feed: _ClockFeed | None = None
+        self.clock_feed: ClockFeed | None = None
         self.outputs_bell: Doorbell | None = None
 
     # -- process ---------------------------------------------------------------
@@ -200,8 +200,8 @@ class WorkerRunner:
             mine = RungMailbox(self._clock_box, self._clock_bell)
             if self.clock_feed is None:  # the main lane: the bridge's /clock feeds it
                 assert self.bridge is not None
-                self.clock_feed = _ClockFeed()
-                self.bridge.follow_clock(self.clock_feed)  # type: ignore[arg-type]
+                self.clock_feed = ClockFeed()
+                self.bridge.follow_clock(self.clock_feed)
             self.clock_feed.add(mine)
         log = self._segment(Ring.nbytes(self.log_capacity, LOG_RECORD_SIZE), "rtcf-log")
         self._log_ring = Ring.create(log.buf, self.log_capacity, LOG_RECORD_SIZE)
@@ -984,18 +984,20 @@ class WorkerRunner:
 
 
     # -- lanes ----------------------------------------------------------------------
+    def _other_lane(self, component: str) -> str | None:
+        """The lane other than main that runs ``component`` (None: the main lane)."""
+        return self._lane_of.get(component if component.startswith("/") else "/" + component)
+
     def lane_said(self, component: str) -> str:
         """Where a component runs, for a "loaded" line: "" in the main lane, else
         " in lane 'x' (pid, CPU, priority)"."""
-        full = component if component.startswith("/") else "/" + component
-        lane = self._lane_of.get(full)
+        lane = self._other_lane(component)
         if lane is None:
             return ""
         return f" in lane {lane!r} ({self.lane_placement.get(lane, '')})"
 
     def _owner_of(self, component: str) -> WorkerRunner:
-        full = component if component.startswith("/") else "/" + component
-        lane = self._lane_of.get(full)
+        lane = self._other_lane(component)
         return self._lanes[lane] if lane is not None else self
 
     def _lane_worker(self, lane: str) -> WorkerRunner:
@@ -1260,25 +1262,6 @@ class _Run:
     done: dict[str, Any] | None = None
 
 
-class _ClockFeed:
-    """Every /clock message into the mailbox of every lane's worker (use_sim_time);
-    a lane started later gets the newest at once."""
-
-    def __init__(self) -> None:
-        self.boxes: list[RungMailbox] = []
-        self.last: bytes | None = None
-
-    def add(self, box: RungMailbox) -> None:
-        self.boxes.append(box)  # (atomic: the bridge's thread may be in write)
-        if self.last is not None:
-            box.write(self.last)
-
-    def write(self, data: bytes) -> None:
-        self.last = data
-        for box in self.boxes:
-            box.write(data)
-
-
 class _LockedSink:
     """A record sink that the lanes' threads share: one writer at a time."""
 
@@ -1335,7 +1318,7 @@ class Bridge(Protocol):
 
     def log(self, rec: LogRecord) -> None: ...
 
-    def follow_clock(self, box: RungMailbox) -> None: ...
+    def follow_clock(self, box: ClockFeed) -> None: ...
 
     def component_loaded(self, info: dict[str, Any], runner: WorkerRunner) -> None:
         """A component was loaded: show it (a node of its own name, its parameters)."""
@@ -1382,11 +1365,7 @@ def _whole_loop(
     main lane's handovers too: how long it waited for the others)."""
     if main.aggregate is None or main.simulated:
         return main.aggregate, main.timing
-    whole = TimingAggregate()
-    whole.calc, whole.jitter = span.calc, span.jitter
-    whole.rows, whole.overruns = span.rows, span.overruns
-    whole.dropped = main.aggregate.dropped
-    whole.components = dict(main.aggregate.components)
+    whole = span.snapshot(main.aggregate)
     for name, result in results.items():
         if name != MAIN_LANE and result.aggregate is not None:
             for label, hist in result.aggregate.components.items():
@@ -1401,13 +1380,7 @@ def _with_timing_rows(
     previous: Callable[[Any], None] | None, record: Any, offset_ns: int
 ) -> Callable[[Any], None]:
     """The timing rows to the recording (iteration_info) as well as where they went."""
-
-    def on_rows(rows: Any) -> None:
-        if previous is not None:
-            previous(rows)
-        record.timing_rows(rows, offset_ns)
-
-    return on_rows
+    return _chain_rows(previous, lambda rows: record.timing_rows(rows, offset_ns))
 
 
 def _counts_only(timing: TimingSummary) -> TimingSummary:

@@ -343,10 +343,12 @@ class Worker:
         self._release_lanes()
         self._lane_seg = seg
         # on /clock time (use_sim_time) as on --sim: no real-time bound on a wait, and
-        # every lane waits for the others after each iteration (the same values)
+        # every lane waits for the others after each iteration (the same values); but
+        # at a real-time priority, so a wait sleeps rather than spins
+        on_clock = self.settings.use_sim_time and not self.simulated
         link = LaneLink(seg.buf, layout, runner.lane or MAIN_LANE,
-                        simulated=self.simulated or self.settings.use_sim_time,
-                        period_ns=runner.state.period_ns)
+                        simulated=self.simulated or on_clock,
+                        period_ns=runner.state.period_ns, nap=on_clock)
         link.bound(runner.state, self._stop(), runner.clock.now_ns)
         self.link = link
         runner.handovers = link.bind
