@@ -125,8 +125,15 @@ def test_the_complex_architecture_in_three_lanes_gives_the_sequential_values(tmp
 @pytest.mark.parametrize("clock", ["--sim", "real time"])
 def test_the_cascade_with_its_rates_in_two_lanes_gives_the_sequential_values(tmp_path, clock):
     text = (EXAMPLES / "cascade.launch").read_text()
-    args = ["--duration", "0.5"] + (["--sim"] if clock == "--sim" else [])
-    run = trace if clock == "--sim" else on_time_trace
+    args = ["--duration", "0.5", "--sim"]
+    run = trace
+    if clock == "real time":  # its rates divided by 10: a lane waits up to 5 ms, not 0.5
+        for arg, hz in (("frequency", "2000.0"), ("position_rate", "500.0"),
+                        ("supervisor_rate", "50.0")):
+            old = f'<arg name="{arg}" default="{hz}"/>'
+            assert old in text
+            text = text.replace(old, f'<arg name="{arg}" default="{float(hz) / 10}"/>')
+        args, run = ["--duration", "1"], on_time_trace
     reference = trace(tmp_path, "seq", text, *args)
     split = run(tmp_path, "lanes", with_lanes(text, {"velocity_controller": "inner"}), *args)
     assert_same(reference, split)
