@@ -184,7 +184,11 @@ class LaneLink:
         self.channels = {c.topic: c for c in lanes.channels}
         self.steps: list[_Handover] = []
         self.state: Any = None
-        self.stop: StopFlag | None = None
+        self.stop: StopFlag | None = None  # the stop word the supervisor writes
+        # the lane's own stop word, the one its loop reads: only this lane sets it, in
+        # after(), so a request that arrives later cannot end the loop where the
+        # other lanes do not know it (they would wait for it for ever)
+        self.decision = StopFlag()
         self.origin_ns = 0
         self.now: Callable[[], int] = time.monotonic_ns
         self.stopped_here = False  # it set the stop word: another lane stopped
@@ -241,6 +245,7 @@ class LaneLink:
             for h in self.steps:  # delayed reader's first iteration (a new segment
                 if isinstance(h, _Send) and h.lock_step:  # after a load has none)
                     h()
+        self.decision.clear()
         words[base + L_LAST] = state.iteration
         words[base + L_NOW] = self.now() if self.simulated else 0
         if FENCED:
@@ -307,18 +312,23 @@ class LaneLink:
         simulated clock wait until they are done too."""
         words, state = self.words, self.state
         i = state.iteration
-        if FENCED:
-            release_fence()
-        words[self.base + L_LAST] = i
-        words[self.base + L_TAKEN] = i  # (a LET lane's release is over: its inputs too)
-        cell = self.stop.cell  # type: ignore[union-attr]
-        reason = cell[0]
-        if reason:  # this lane stops after i: so do the others
+        cell = self.decision.cell
+        # asked to stop (the supervisor's word, or the runner's own): this lane stops
+        # after i, and so do the others; said before this iteration is said done, so
+        # a lane that waits for it sees the stop when its wait ends
+        reason = self.stop.cell[0] or cell[0]  # type: ignore[union-attr]
+        if reason:
+            cell[0] = reason
             if words[W_STOP_AT] > i:
                 words[W_REASON] = max(words[W_REASON], reason)
                 if FENCED:
                     release_fence()
                 words[W_STOP_AT] = i
+        if FENCED:
+            release_fence()
+        words[self.base + L_LAST] = i
+        words[self.base + L_TAKEN] = i  # (a LET lane's release is over: its inputs too)
+        if reason:
             return
         nxt = i + self.every
         if words[W_STOP_AT] < nxt:
@@ -345,6 +355,9 @@ class LaneLink:
                 self.pause()
         if FENCED:
             acquire_fence()
+        if words[W_STOP_AT] < nxt:  # a lane that stopped said so before it said done
+            cell[0] = words[W_REASON] or STOP
+            self.stopped_here = True
 
     def failed(self) -> None:
         """This lane's loop ended on an error: the others stop, through their safe

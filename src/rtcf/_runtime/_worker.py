@@ -432,14 +432,20 @@ class Worker:
                 after: Callable[[], object] | None = _after_iteration(trace, bridge)
                 if link is not None:
                     after = _chain(after, link.after)
-                result = runner.run(
-                    iterations,
-                    timing_ring=ring,
-                    on_iteration=after,
-                    feeders=feeders,
-                    # the supervisor's, with which it stamps the recording's timing rows
-                    ros_offset_ns=ros_offset_ns,
-                )
+                if link is not None:  # its loop ends where the lane's after() says
+                    runner.stop_flag = link.decision
+                try:
+                    result = runner.run(
+                        iterations,
+                        timing_ring=ring,
+                        on_iteration=after,
+                        feeders=feeders,
+                        # the supervisor's, with which it stamps the recording's timing
+                        # rows
+                        ros_offset_ns=ros_offset_ns,
+                    )
+                finally:
+                    runner.stop_flag = self._stop()
             realtime = self.realtime.to_dict()
         except BaseException:
             if link is not None:
