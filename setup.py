@@ -24,6 +24,15 @@ _FENCES = Extension(
     optional=platform.machine().lower() in ("x86_64", "amd64", "i386", "i686"),
 )
 
+# The loop's hot path (src/rtcf/_core/_compiled.c: slots, ports, the timed part of an
+# iteration). Optional: without a C compiler rtcf installs and runs the same in Python
+# (rtcf._core._interpreted), several times slower per component, and says so.
+_HOT_PATH = Extension(
+    "rtcf._core._compiled",
+    sources=["src/rtcf/_core/_compiled.c"],
+    optional=True,
+)
+
 
 def _link_project_files() -> None:
     """Give `colcon build --symlink-install` the files that setuptools reads.
@@ -65,4 +74,4 @@ class _Distribution(Distribution):
 
 
 _link_project_files()
-setup(distclass=_Distribution, ext_modules=[_FENCES])
+setup(distclass=_Distribution, ext_modules=[_FENCES, _HOT_PATH])

@@ -3,13 +3,13 @@
 from array import array
 
 from rtcf._core._executor import ABORT, StopFlag
-from rtcf._runtime._worker import HeartbeatWatch
+from rtcf._runtime._worker import heartbeat_watch
 
 
 def test_the_watch_fires_after_limit_iterations_without_a_beat_and_not_before() -> None:
     beat = array("q", [7])
     stop = StopFlag()
-    watch = HeartbeatWatch(beat, 3, stop)
+    watch = heartbeat_watch(beat, 3, stop)
     for _ in range(2):
         watch()
     assert not watch.fired and stop.cell[0] == 0
@@ -19,3 +19,5 @@ def test_the_watch_fires_after_limit_iterations_without_a_beat_and_not_before() 
     assert not watch.fired
     watch()
     assert watch.fired and stop.cell[0] == ABORT
+    watch.release()
+    watch()  # released: nothing happens (the words may be gone)

@@ -196,7 +196,9 @@ def test_to_dict_has_the_timing_json_keys() -> None:
         "rt_throttling",
         "gc",
         "applied",
+        "hot_path",
     ]
+    assert doc["hot_path"]["path"] in ("compiled", "Python")
     assert doc["gc"] == "left as is (FrozenGC not used)"
     assert doc["applied"][1] == {
         "name": "mlockall",

@@ -401,8 +401,13 @@ def _bridge(middleware: str, runner_name: str) -> Bridge | None:
 
 def _say_realtime(realtime: dict[str, Any], simulated: bool) -> None:
     """One line for what took effect, one per setting that did not (with its reason)."""
+    hot = realtime.get("hot_path") or {}
+    path = "hot path compiled (C)" if hot.get("path") == "compiled" else "hot path in Python"
+    if hot.get("path") == "Python" and hot.get("why") != "RTCF_PURE_PYTHON is set":
+        _say(f"warning: the loop's hot path runs in Python, several times slower per "
+             f"component: {hot.get('why')}")
     if simulated:
-        _say("simulated clock: no real-time settings applied")
+        _say(f"simulated clock: no real-time settings applied; {path}")
         return
     items = realtime.get("applied", [])
     short = {
@@ -419,7 +424,7 @@ def _say_realtime(realtime: dict[str, Any], simulated: bool) -> None:
     _say(
         "real-time: "
         + (", ".join(done) if done else "nothing applied")
-        + f"; kernel {realtime.get('kernel_preemption')}"
+        + f"; kernel {realtime.get('kernel_preemption')}; {path}"
     )
     for item in items:
         if not item["ok"]:

@@ -19,6 +19,7 @@ from __future__ import annotations
 
 import math
 import sys
+import time
 from array import array
 from collections.abc import Callable, MutableSequence, Sequence
 from dataclasses import dataclass
@@ -26,6 +27,8 @@ from typing import NamedTuple
 
 from ._clock import Clock
 from ._faults import WatchdogTripped
+from ._hotpath import Calculation
+from ._interpreted import SKIPPED as SKIPPED  # a component's column when it did not run
 from ._loop_state import LoopState
 from ._timing import (
     COL_CALC,
@@ -71,7 +74,6 @@ class StopFlag:
         self.cell[0] = 0
 
 
-SKIPPED = -1  # a component's time column in an iteration it did not run in
 
 
 class Plan(NamedTuple):
@@ -278,7 +280,19 @@ class Executor:
         i = state.iteration + stride
         end = sys.maxsize if iterations is None else i + iterations
         first = i
-        k = -1
+        # the sleep and the timed part of each iteration (wake-up, loop state, feeders,
+        # the plan's updates and their times, the running word): the hot path,
+        # compiled where rtcf could build it
+        # native: CLOCK_MONOTONIC with absolute sleeps, which the compiled path calls
+        # itself (no Python between the wake-up and the iteration's first time read)
+        native = now is time.monotonic_ns and bool(getattr(clock, "uses_clock_nanosleep", False))
+        calculation = Calculation(
+            self, state, feeders, now, sleep_until, native, running, words, scratch,
+            origin, ros_offset, timing.width,
+            (COL_ITERATION, COL_SCHEDULED, COL_JITTER, COL_CALC, COL_PHASE),
+        )
+        iterate = calculation.iterate
+        running[0] = -1
         state.running = True
         try:
             while i < end and not cell[0]:
@@ -288,34 +302,7 @@ class Executor:
                     row, b = words, off >> 3
                 else:  # ring full: the row goes to scratch; the ring counts the drop
                     row, b = scratch, 0
-                sleep_until(deadline)
-                t0 = now()
-                state.iteration = i
-                state.time_ns = deadline - origin
-                state.stamp_ns = deadline + ros_offset
-                t = t0
-                if feeders:  # in the iteration's time, not in its first component's
-                    for feed in feeders:
-                        feed()
-                    t = now()
-                # read after the feeders (a swap applies now); one plan per phase
-                phase = i % self.hyperperiod
-                steps, skipped = self.plans[phase]
-                for k, update in steps:
-                    running[0] = k
-                    update()
-                    t1 = now()
-                    row[b + k] = t1 - t
-                    t = t1
-                k = -1
-                running[0] = -1
-                for c in skipped:
-                    row[b + c] = SKIPPED
-                row[b + COL_ITERATION] = i
-                row[b + COL_SCHEDULED] = deadline
-                row[b + COL_JITTER] = t0 - deadline
-                row[b + COL_CALC] = t - t0
-                row[b + COL_PHASE] = phase
+                t = iterate(i, deadline, b if off >= 0 else -1)  # sleeps first
                 deadline += period
                 if t > deadline:
                     overruns += 1
@@ -362,12 +349,14 @@ class Executor:
                 if idle is not None:
                     idle()
         except BaseException as exc:  # SystemExit and KeyboardInterrupt are named too
+            k = running[0]  # the update that raised leaves its column there
             if k < 0:
                 raise
             running[0] = -1
             deadline += period  # the failed iteration used its slot on the grid
             raise UpdateFailure(k - F, i, state.time_ns, exc) from exc
         finally:
+            calculation.release()
             state.running = False
             if fresh and state.iteration < first:
                 # stopped before its first iteration (a load while waiting for the first

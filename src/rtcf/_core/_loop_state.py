@@ -1,18 +1,14 @@
-"""The state of the running loop that components may read: iteration, time, rate."""
+"""The state of the running loop that components may read: iteration, time, rate.
+
+:class:`LoopState` holds ``frequency``, ``period_ns``, ``iteration`` (-1 before the
+first), ``time_ns`` (the scheduled start of the current iteration since the loop
+started), ``stamp_ns`` (the same instant in ROS time: ns since the epoch, or /clock
+time under use_sim_time) and ``running``. It is part of the hot path (a port's write
+reads its iteration), so it comes from :mod:`rtcf._core._hotpath`.
+"""
 
 from __future__ import annotations
 
+from ._hotpath import LoopState
 
-class LoopState:
-    """What the loop tells components about the current iteration."""
-
-    __slots__ = ("frequency", "iteration", "period_ns", "running", "stamp_ns", "time_ns")
-
-    def __init__(self, frequency: float = 1.0) -> None:
-        self.frequency = frequency
-        self.period_ns = round(1e9 / frequency)
-        self.iteration = -1  # -1 before the first iteration
-        self.time_ns = 0  # scheduled start of the current iteration, since the loop started
-        # the same instant in ROS time (ns since the epoch; /clock time under use_sim_time)
-        self.stamp_ns = 0
-        self.running = False
+__all__ = ["LoopState"]

@@ -1,9 +1,10 @@
 """Ports: typed inputs and outputs of a component, connected through shared slots.
 
 An output owns a :class:`Slot`; every input connected to it holds a reference to
-that same slot, so a write is two attribute stores and a read is one look-up: no
-copy, no queue, no allocation. Values pass by reference: do not mutate an object
-after writing it (write a new one, or a copy).
+that same slot, so a write is three stores and a read is one look-up: no copy, no
+queue, no allocation. Slots and the ports' read, write and status are the hot path
+(:mod:`rtcf._core._hotpath`): compiled where rtcf could build it. Values pass by
+reference: do not mutate an object after writing it (write a new one, or a copy).
 
 An input with no producer gets a slot of its own that nothing inside the runner
 writes (a middleware bridge may feed it between iterations).
@@ -12,9 +13,12 @@ writes (a middleware bridge may feed it between iterations).
 from __future__ import annotations
 
 import enum
-from typing import Any, Generic, TypeVar
+from typing import TYPE_CHECKING, Any, Generic, TypeVar
+
+from ._hotpath import PortCore, Slot, set_flow_status
 
 T = TypeVar("T")
+__all__ = ["FlowStatus", "InputPort", "OutputPort", "Port", "Slot"]
 
 
 class FlowStatus(enum.IntEnum):
@@ -25,35 +29,20 @@ class FlowStatus(enum.IntEnum):
     NEW_DATA = 2
 
 
-class Slot:
-    """The latest value on one topic and how many times it was written."""
-
-    __slots__ = ("iteration", "seq", "value")
-
-    def __init__(self) -> None:
-        self.value: Any = None
-        self.seq = 0  # number of writes; 0 means never written
-        self.iteration = -1  # the loop iteration of the last write (-1: none, or outside)
+set_flow_status(FlowStatus.NO_DATA, FlowStatus.OLD_DATA, FlowStatus.NEW_DATA)
 
 
-class _NoLoop:
-    iteration = -1
-
-
-_NO_LOOP = _NoLoop()
-
-
-class Port(Generic[T]):
+class Port(PortCore, Generic[T]):
     """Common part of inputs and outputs."""
 
-    __slots__ = ("_slot", "component", "name", "topic", "type")
+    __slots__ = ("component", "name", "topic", "type")
 
     def __init__(self, component: str, name: str, type_: type[T]) -> None:
         self.component = component  # full name of the owning component
         self.name = name  # name given in add_input/add_output
         self.type = type_
         self.topic = ""  # resolved topic name, set when the runner wires the graph
-        self._slot = Slot()
+        # (its slot, its loop state, what it last read: PortCore's, in the hot path)
 
     @property
     def qualified_name(self) -> str:
@@ -63,20 +52,24 @@ class Port(Generic[T]):
 class OutputPort(Port[T]):
     """An output port: ``write(value)`` makes ``value`` the topic's latest value."""
 
-    __slots__ = ("_state", "_tap")
+    __slots__ = ()
     direction = "output"
 
     def __init__(self, component: str, name: str, type_: type[T], state: Any = None) -> None:
         super().__init__(component, name, type_)
-        self._tap: Any = None  # set while the port is mapped to the middleware
         # the loop's state: a write records its iteration (-1 for a port outside a loop)
-        self._state = state if state is not None else _NO_LOOP
+        self._state = state
+        # (its tap, set while the port is mapped to the middleware or recorded, is
+        # PortCore's: a tapped port's class is one whose write calls it)
 
-    def write(self, value: T) -> None:
-        slot = self._slot
-        slot.value = value
-        slot.seq += 1
-        slot.iteration = self._state.iteration
+    if TYPE_CHECKING:
+
+        def write(self, value: T) -> None:
+            """Make ``value`` the topic's latest value."""
+
+    else:  # the hot path's (compiled where it could be built): the slot takes the
+        # value, counts the write and records the loop's iteration
+        write = PortCore._write
 
     def __repr__(self) -> str:
         return f"<OutputPort {self.qualified_name} -> {self.topic or '?'} [{self.type.__name__}]>"
@@ -85,39 +78,37 @@ class OutputPort(Port[T]):
 class InputPort(Port[T]):
     """An input port: ``read()`` returns the latest value on its topic, or None."""
 
-    __slots__ = ("_seen", "producer")
+    __slots__ = ("producer",)
     direction = "input"
 
     def __init__(self, component: str, name: str, type_: type[T]) -> None:
         super().__init__(component, name, type_)
-        self._seen = 0
         self.producer: OutputPort[Any] | None = None
 
-    def read(self) -> T | None:
-        """Return the latest value (None before the first write) and mark it as seen."""
-        slot = self._slot
-        self._seen = slot.seq
-        return slot.value
+    if TYPE_CHECKING:
 
-    @property
-    def status(self) -> FlowStatus:
-        """NEW_DATA if written since this port's last read, OLD_DATA if not, or NO_DATA."""
-        seq = self._slot.seq
-        if seq == 0:
-            return FlowStatus.NO_DATA
-        return FlowStatus.NEW_DATA if seq != self._seen else FlowStatus.OLD_DATA
+        def read(self) -> T | None:
+            """Return the latest value (None before the first write) and mark it as seen."""
 
-    @property
-    def iteration(self) -> int:
-        """The loop iteration in which the value on this topic was written: with
-        components at several rates, which iteration's value a reader sees (-1 before
-        the first write, and for values fed from the middleware)."""
-        return self._slot.iteration
+        @property
+        def status(self) -> FlowStatus:
+            """NEW_DATA if written since this port's last read, OLD_DATA if not, or NO_DATA."""
 
-    @property
-    def has_new_data(self) -> bool:
-        """True if the value was written since this port's last ``read()``."""
-        return self._slot.seq != self._seen
+        @property
+        def iteration(self) -> int:
+            """The loop iteration in which the value on this topic was written: with
+            components at several rates, which iteration's value a reader sees (-1 before
+            the first write, and for values fed from the middleware)."""
+
+        @property
+        def has_new_data(self) -> bool:
+            """True if the value was written since this port's last ``read()``."""
+
+    else:  # the hot path's (compiled where it could be built)
+        read = PortCore._read
+        status = PortCore._status
+        iteration = PortCore._iteration
+        has_new_data = PortCore._has_new_data
 
     @property
     def connected(self) -> bool:

@@ -26,8 +26,11 @@ from __future__ import annotations
 import ctypes
 import os
 import platform
+from collections.abc import Callable
 from types import TracebackType
 from typing import TYPE_CHECKING, Any
+
+from ._hotpath import RingGate
 
 if TYPE_CHECKING:
     from _typeshed import ReadableBuffer, WriteableBuffer
@@ -293,6 +296,11 @@ class Ring:
         return self._ctl[_R_HEAD]
 
     # -- consumer side ---------------------------------------------------------
+
+    def when_pending(self, fn: Callable[[], object]) -> RingGate:
+        """A callable that calls ``fn`` only when records wait: two word reads in the
+        common case (a loop's feeder). ``release()`` it before this ring closes."""
+        return RingGate(self._ctl, _R_HEAD, _R_TAIL, fn)
 
     def __len__(self) -> int:
         ctl = self._ctl

@@ -27,6 +27,7 @@ from dataclasses import asdict, dataclass
 from typing import Any, Generic, Protocol, TypeVar
 
 from ._errors import ConfigurationError
+from ._hotpath import RingGate
 
 T = TypeVar("T")
 
@@ -217,6 +218,12 @@ class UpdateReader:
         self._ring = ring
         self._apply = apply  # apply(kind, component, name, value)
         self.applied = 0
+
+    def gate(self) -> RingGate:
+        """This reader as a loop's feeder: called only when a record waits (the common
+        case, none, is two shared words read, in C where the hot path is compiled).
+        ``release()`` it before the ring closes."""
+        return self._ring.when_pending(self)
 
     def __call__(self) -> None:
         ring = self._ring

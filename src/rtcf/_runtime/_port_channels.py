@@ -18,6 +18,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from .._core._errors import ConfigurationError
+from .._core._hotpath import PortCore
 from .._core._message_types import type_name
 from .._core._ports import InputPort, OutputPort, Port, Slot
 from .._core._rings import Mailbox, Ring
@@ -104,12 +105,7 @@ class _TappedOutputPort(OutputPort[Any]):
 
     __slots__ = ()
 
-    def write(self, value: Any) -> None:
-        slot = self._slot
-        slot.value = value
-        slot.seq += 1
-        slot.iteration = self._state.iteration
-        self._tap(value)
+    write = PortCore._write_tapped  # the hot path's: the slot's write, then the tap
 
 
 class Tap:

@@ -26,6 +26,7 @@ from pathlib import Path
 from types import TracebackType
 from typing import Any
 
+from .._core import _hotpath
 from .._core._clock import set_timer_slack
 from .._core._settings import RunnerSettings
 
@@ -101,6 +102,8 @@ class RealtimeReport:
             "rt_throttling": self.rt_throttling,
             "gc": gc_text,
             "applied": [asdict(i) for i in self.items],
+            # which hot path this process's loop runs: compiled, or Python and why
+            "hot_path": {"path": _hotpath.HOT_PATH, "why": _hotpath.WHY},
         }
 
     def lines(self) -> list[str]:

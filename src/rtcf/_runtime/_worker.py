@@ -30,6 +30,7 @@ from typing import Any
 from .._core._clock import Clock, MiddlewareClock, MonotonicClock, SimClock
 from .._core._errors import ComponentError, ConfigurationError, GraphError, LaunchError, RtcfError
 from .._core._executor import ABORT, StopFlag
+from .._core._hotpath import HeartbeatWatch
 from .._core._lane_names import MAIN_LANE
 from .._core._lanes import LET_OUT, SEND
 from .._core._lifecycle import REFUSED, encode_outcome
@@ -404,7 +405,10 @@ class Worker:
                 bridge.feeders if bridge is not None else [], runner.state,
                 wait=self.simulated,
             )
-        feeders: list[Callable[[], object]] = [self._updates()]
+        # control records (tunables, log levels, lifecycle): read only when one waits
+        updates = self._updates()
+        gate = updates.gate()
+        feeders: list[Callable[[], object]] = [gate]
         if link is not None:
             feeders.insert(0, link.feeder)
         if bridge is not None:
@@ -412,8 +416,8 @@ class Worker:
         watch = None
         timeout = self.settings.heartbeat_timeout
         if timeout > 0 and not self.simulated and not self.settings.use_sim_time:
-            watch = HeartbeatWatch(self._cells[2], max(2, round(timeout * self.settings.frequency)),
-                                   self._stop())
+            watch = heartbeat_watch(self._cells[2],
+                                    max(2, round(timeout * self.settings.frequency)), self._stop())
             feeders.append(watch)
         try:
             if self.realtime is None:  # once per worker: scheduling, affinity, memory
@@ -455,6 +459,9 @@ class Worker:
             if link is not None and link.stopped_here:  # not a stop asked of this run
                 self._stop().clear()
             self._in_loop = False
+            gate.release()
+            if watch is not None:
+                watch.release()
             for name, value in self._parameters_set:
                 self._send("event", "parameter_set", (name, value))
             self._parameters_set.clear()
@@ -539,30 +546,12 @@ def _all_outputs(runner: Runner) -> list[Any]:
     return [p for c in runner.components.values() for p in c._rtcf_outputs.values()]
 
 
-class HeartbeatWatch:
+def heartbeat_watch(cell: Any, limit: int, stop: StopFlag) -> HeartbeatWatch:
     """A feeder: ends the loop (ABORT, so the safe stops run) when the supervisor's
     heartbeat word has not moved for ``limit`` iterations. A read and a compare per
-    iteration; the supervisor counts up every 10 ms while the loop runs."""
-
-    __slots__ = ("cell", "fired", "last", "left", "limit", "stop")
-
-    def __init__(self, cell: Any, limit: int, stop: StopFlag) -> None:
-        self.cell = cell
-        self.last = cell[0]
-        self.limit = self.left = limit
-        self.stop = stop
-        self.fired = False
-
-    def __call__(self) -> None:
-        beat = self.cell[0]
-        if beat != self.last:
-            self.last = beat
-            self.left = self.limit
-            return
-        self.left -= 1
-        if self.left == 0:
-            self.fired = True
-            self.stop.set(ABORT)
+    iteration (in C where the hot path is compiled); the supervisor counts up every
+    10 ms while the loop runs. ``release()`` it before the words go."""
+    return HeartbeatWatch(cell, limit, stop.cell, ABORT)
 
 
 def _chain(

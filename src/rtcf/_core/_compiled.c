@@ -1,0 +1,1029 @@
+/* The loop's hot path, compiled (rtcf._core._compiled; docs/performance.md#hot-path).
+ *
+ * What runs once per component per iteration, written against CPython's C API:
+ *
+ *   Slot          a topic's latest value, how many writes, and the iteration of the last
+ *   LoopState     what the loop tells components (iteration, time, stamp, rate)
+ *   PortCore      the base of rtcf's ports: a slot, the loop's state, what a reader
+ *                 last saw, a tap; ``_write``/``_read``/``_status``/... are what
+ *                 rtcf._core._ports publishes as ``write``/``read``/``status``/...
+ *   Calculation   the timed part of one iteration: wake-up time, the loop state, the
+ *                 feeders, each component's update called by vectorcall with its time
+ *                 from CLOCK_MONOTONIC stored into the timing row, the running word
+ *   RingGate, HeartbeatWatch
+ *                 the worker's feeders in every iteration: two word reads each in the
+ *                 common case (no control record waits; the supervisor's heartbeat moved)
+ *
+ * rtcf._core._interpreted is the same in Python, line for line: the path used where
+ * this module cannot be built, or with RTCF_PURE_PYTHON=1. Both must keep exactly
+ * the same semantics (tests/unit/test_hotpath.py runs them side by side).
+ *
+ * Nothing here allocates in the steady state except what Python itself does for a
+ * call's result and the int that ``iterate`` returns.
+ */
+
+#define PY_SSIZE_T_CLEAN
+#include <Python.h>
+#include <structmember.h>
+#include <errno.h>
+#include <time.h>
+
+/* FlowStatus's members (NO_DATA, OLD_DATA, NEW_DATA): rtcf._core._ports hands them in */
+static PyObject *flow_status[3] = {NULL, NULL, NULL};
+static PyObject *str_plans = NULL;
+
+/* ---- Slot ------------------------------------------------------------------------- */
+
+typedef struct {
+    PyObject_HEAD
+    PyObject *value;
+    long long seq;       /* number of writes; 0 means never written */
+    long long iteration; /* the loop iteration of the last write (-1: none, or outside) */
+} SlotObject;
+
+static PyTypeObject SlotType;
+
+static PyObject *
+Slot_new(PyTypeObject *type, PyObject *args, PyObject *kwds)
+{
+    if (PyTuple_GET_SIZE(args) != 0 || (kwds != NULL && PyDict_GET_SIZE(kwds) != 0)) {
+        PyErr_SetString(PyExc_TypeError, "Slot() takes no arguments");
+        return NULL;
+    }
+    SlotObject *s = (SlotObject *)type->tp_alloc(type, 0);
+    if (s == NULL)
+        return NULL;
+    s->value = Py_NewRef(Py_None);
+    s->seq = 0;
+    s->iteration = -1;
+    return (PyObject *)s;
+}
+
+static int
+Slot_traverse(SlotObject *s, visitproc visit, void *arg)
+{
+    Py_VISIT(s->value);
+    return 0;
+}
+
+static int
+Slot_clear(SlotObject *s)
+{
+    Py_CLEAR(s->value);
+    return 0;
+}
+
+static void
+Slot_dealloc(SlotObject *s)
+{
+    PyObject_GC_UnTrack(s);
+    Slot_clear(s);
+    Py_TYPE(s)->tp_free((PyObject *)s);
+}
+
+static PyObject *
+Slot_get_value(SlotObject *s, void *closure)
+{
+    return Py_NewRef(s->value != NULL ? s->value : Py_None);
+}
+
+static int
+Slot_set_value(SlotObject *s, PyObject *value, void *closure)
+{
+    if (value == NULL) {
+        PyErr_SetString(PyExc_AttributeError, "a slot's value cannot be deleted");
+        return -1;
+    }
+    Py_XSETREF(s->value, Py_NewRef(value));
+    return 0;
+}
+
+static PyGetSetDef Slot_getset[] = {
+    {"value", (getter)Slot_get_value, (setter)Slot_set_value,
+     "The latest value (None before the first write).", NULL},
+    {NULL},
+};
+
+static PyMemberDef Slot_members[] = {
+    {"seq", T_LONGLONG, offsetof(SlotObject, seq), 0, "Number of writes; 0: never written."},
+    {"iteration", T_LONGLONG, offsetof(SlotObject, iteration), 0,
+     "The loop iteration of the last write (-1: none, or outside a loop)."},
+    {NULL},
+};
+
+static PyTypeObject SlotType = {
+    PyVarObject_HEAD_INIT(NULL, 0)
+    .tp_name = "rtcf._core._compiled.Slot",
+    .tp_doc = "The latest value on one topic and how many times it was written.",
+    .tp_basicsize = sizeof(SlotObject),
+    .tp_flags = Py_TPFLAGS_DEFAULT | Py_TPFLAGS_HAVE_GC,
+    .tp_new = Slot_new,
+    .tp_dealloc = (destructor)Slot_dealloc,
+    .tp_traverse = (traverseproc)Slot_traverse,
+    .tp_clear = (inquiry)Slot_clear,
+    .tp_getset = Slot_getset,
+    .tp_members = Slot_members,
+};
+
+/* ---- LoopState -------------------------------------------------------------------- */
+
+typedef struct {
+    PyObject_HEAD
+    double frequency;
+    long long period_ns;
+    long long iteration; /* -1 before the first iteration */
+    long long time_ns;   /* scheduled start of the current iteration, since the loop started */
+    long long stamp_ns;  /* the same instant in ROS time */
+    char running;
+} LoopStateObject;
+
+static PyTypeObject LoopStateType;
+
+static int
+LoopState_init(LoopStateObject *s, PyObject *args, PyObject *kwds)
+{
+    static char *kwlist[] = {"frequency", NULL};
+    double frequency = 1.0;
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "|d:LoopState", kwlist, &frequency))
+        return -1;
+    if (!(frequency > 0.0)) {
+        PyErr_SetString(PyExc_ValueError, "LoopState: the frequency must be positive");
+        return -1;
+    }
+    s->frequency = frequency;
+    /* round(1e9 / frequency), as Python rounds: half to even */
+    s->period_ns = (long long)nearbyint(1e9 / frequency);
+    s->iteration = -1;
+    s->time_ns = 0;
+    s->stamp_ns = 0;
+    s->running = 0;
+    return 0;
+}
+
+static PyMemberDef LoopState_members[] = {
+    {"frequency", T_DOUBLE, offsetof(LoopStateObject, frequency), 0, "The loop's rate [Hz]."},
+    {"period_ns", T_LONGLONG, offsetof(LoopStateObject, period_ns), 0, "Its period [ns]."},
+    {"iteration", T_LONGLONG, offsetof(LoopStateObject, iteration), 0,
+     "The current iteration (-1 before the first)."},
+    {"time_ns", T_LONGLONG, offsetof(LoopStateObject, time_ns), 0,
+     "Scheduled start of the current iteration, since the loop started [ns]."},
+    {"stamp_ns", T_LONGLONG, offsetof(LoopStateObject, stamp_ns), 0,
+     "The same instant in ROS time [ns since the epoch]."},
+    {"running", T_BOOL, offsetof(LoopStateObject, running), 0, "Whether the loop runs."},
+    {NULL},
+};
+
+static PyTypeObject LoopStateType = {
+    PyVarObject_HEAD_INIT(NULL, 0)
+    .tp_name = "rtcf._core._compiled.LoopState",
+    .tp_doc = "What the loop tells components about the current iteration.",
+    .tp_basicsize = sizeof(LoopStateObject),
+    .tp_flags = Py_TPFLAGS_DEFAULT,
+    .tp_new = PyType_GenericNew,
+    .tp_init = (initproc)LoopState_init,
+    .tp_members = LoopState_members,
+};
+
+/* ---- PortCore --------------------------------------------------------------------- */
+
+typedef struct {
+    PyObject_HEAD
+    SlotObject *slot;       /* never NULL */
+    LoopStateObject *state; /* NULL: a port outside a loop (writes record iteration -1) */
+    PyObject *tap;          /* NULL: none; else called with every written value */
+    long long seen;         /* the slot's seq at this port's last read */
+} PortCoreObject;
+
+static PyObject *
+PortCore_new(PyTypeObject *type, PyObject *args, PyObject *kwds)
+{
+    PortCoreObject *p = (PortCoreObject *)type->tp_alloc(type, 0);
+    if (p == NULL)
+        return NULL;
+    p->slot = (SlotObject *)PyObject_CallNoArgs((PyObject *)&SlotType);
+    if (p->slot == NULL) {
+        Py_DECREF(p);
+        return NULL;
+    }
+    return (PyObject *)p;
+}
+
+static int
+PortCore_traverse(PortCoreObject *p, visitproc visit, void *arg)
+{
+    Py_VISIT(p->slot);
+    Py_VISIT(p->state);
+    Py_VISIT(p->tap);
+    return 0;
+}
+
+static int
+PortCore_clear(PortCoreObject *p)
+{
+    Py_CLEAR(p->slot);
+    Py_CLEAR(p->state);
+    Py_CLEAR(p->tap);
+    return 0;
+}
+
+static void
+PortCore_dealloc(PortCoreObject *p)
+{
+    PyObject_GC_UnTrack(p);
+    PortCore_clear(p);
+    Py_TYPE(p)->tp_free((PyObject *)p);
+}
+
+static inline void
+port_store(PortCoreObject *p, PyObject *value)
+{
+    SlotObject *s = p->slot;
+    Py_SETREF(s->value, Py_NewRef(value));
+    s->seq++;
+    s->iteration = p->state != NULL ? p->state->iteration : -1;
+}
+
+static PyObject *
+PortCore_write(PortCoreObject *p, PyObject *value)
+{
+    if (p->slot == NULL)
+        return PyErr_Format(PyExc_RuntimeError, "port has no slot");
+    port_store(p, value);
+    Py_RETURN_NONE;
+}
+
+static PyObject *
+PortCore_write_tapped(PortCoreObject *p, PyObject *value)
+{
+    if (p->slot == NULL)
+        return PyErr_Format(PyExc_RuntimeError, "port has no slot");
+    port_store(p, value);
+    if (p->tap == NULL)
+        Py_RETURN_NONE;
+    PyObject *arg[1] = {value};
+    PyObject *res = PyObject_Vectorcall(p->tap, arg, 1, NULL);
+    if (res == NULL)
+        return NULL;
+    Py_DECREF(res);
+    Py_RETURN_NONE;
+}
+
+static PyObject *
+PortCore_read(PortCoreObject *p, PyObject *Py_UNUSED(ignored))
+{
+    SlotObject *s = p->slot;
+    if (s == NULL)
+        return PyErr_Format(PyExc_RuntimeError, "port has no slot");
+    p->seen = s->seq;
+    return Py_NewRef(s->value != NULL ? s->value : Py_None);
+}
+
+static PyObject *
+PortCore_status(PortCoreObject *p, void *closure)
+{
+    long long seq = p->slot->seq;
+    int k = seq == 0 ? 0 : (seq != p->seen ? 2 : 1);
+    if (flow_status[k] == NULL)
+        return PyLong_FromLong(k);
+    return Py_NewRef(flow_status[k]);
+}
+
+static PyObject *
+PortCore_has_new_data(PortCoreObject *p, void *closure)
+{
+    return PyBool_FromLong(p->slot->seq != p->seen);
+}
+
+static PyObject *
+PortCore_iteration(PortCoreObject *p, void *closure)
+{
+    return PyLong_FromLongLong(p->slot->iteration);
+}
+
+static PyObject *
+PortCore_get_slot(PortCoreObject *p, void *closure)
+{
+    return Py_NewRef((PyObject *)p->slot);
+}
+
+static int
+PortCore_set_slot(PortCoreObject *p, PyObject *value, void *closure)
+{
+    if (value == NULL || !PyObject_TypeCheck(value, &SlotType)) {
+        PyErr_SetString(PyExc_TypeError, "a port's _slot must be a Slot");
+        return -1;
+    }
+    Py_XSETREF(p->slot, (SlotObject *)Py_NewRef(value));
+    return 0;
+}
+
+static PyObject *
+PortCore_get_state(PortCoreObject *p, void *closure)
+{
+    return Py_NewRef(p->state != NULL ? (PyObject *)p->state : Py_None);
+}
+
+static int
+PortCore_set_state(PortCoreObject *p, PyObject *value, void *closure)
+{
+    if (value == NULL || value == Py_None) {
+        Py_CLEAR(p->state);
+        return 0;
+    }
+    if (!PyObject_TypeCheck(value, &LoopStateType)) {
+        PyErr_SetString(PyExc_TypeError, "a port's _state must be a LoopState or None");
+        return -1;
+    }
+    Py_XSETREF(p->state, (LoopStateObject *)Py_NewRef(value));
+    return 0;
+}
+
+static PyObject *
+PortCore_get_tap(PortCoreObject *p, void *closure)
+{
+    return Py_NewRef(p->tap != NULL ? p->tap : Py_None);
+}
+
+static int
+PortCore_set_tap(PortCoreObject *p, PyObject *value, void *closure)
+{
+    if (value == NULL || value == Py_None) {
+        Py_CLEAR(p->tap);
+        return 0;
+    }
+    Py_XSETREF(p->tap, Py_NewRef(value));
+    return 0;
+}
+
+static PyMethodDef PortCore_methods[] = {
+    {"_write", (PyCFunction)PortCore_write, METH_O,
+     "write(value)\n--\n\nMake value the topic's latest value."},
+    {"_write_tapped", (PyCFunction)PortCore_write_tapped, METH_O,
+     "write(value)\n--\n\nMake value the topic's latest value, and hand it to the tap."},
+    {"_read", (PyCFunction)PortCore_read, METH_NOARGS,
+     "read()\n--\n\nReturn the latest value (None before the first write) and mark it as seen."},
+    {NULL},
+};
+
+static PyGetSetDef PortCore_getset[] = {
+    {"_slot", (getter)PortCore_get_slot, (setter)PortCore_set_slot, NULL, NULL},
+    {"_state", (getter)PortCore_get_state, (setter)PortCore_set_state, NULL, NULL},
+    {"_tap", (getter)PortCore_get_tap, (setter)PortCore_set_tap, NULL, NULL},
+    {"_status", (getter)PortCore_status, NULL,
+     "NEW_DATA if written since this port's last read, OLD_DATA if not, or NO_DATA.", NULL},
+    {"_has_new_data", (getter)PortCore_has_new_data, NULL,
+     "True if the value was written since this port's last read().", NULL},
+    {"_iteration", (getter)PortCore_iteration, NULL,
+     "The loop iteration in which the value on this topic was written (-1 before the first "
+     "write, and for values fed from the middleware).", NULL},
+    {NULL},
+};
+
+static PyMemberDef PortCore_members[] = {
+    {"_seen", T_LONGLONG, offsetof(PortCoreObject, seen), 0, NULL},
+    {NULL},
+};
+
+static PyTypeObject PortCoreType = {
+    PyVarObject_HEAD_INIT(NULL, 0)
+    .tp_name = "rtcf._core._compiled.PortCore",
+    .tp_doc = "The base of rtcf's ports: a slot, the loop's state, a reader's last seq.",
+    .tp_basicsize = sizeof(PortCoreObject),
+    .tp_flags = Py_TPFLAGS_DEFAULT | Py_TPFLAGS_BASETYPE | Py_TPFLAGS_HAVE_GC,
+    .tp_new = PortCore_new,
+    .tp_dealloc = (destructor)PortCore_dealloc,
+    .tp_traverse = (traverseproc)PortCore_traverse,
+    .tp_clear = (inquiry)PortCore_clear,
+    .tp_methods = PortCore_methods,
+    .tp_getset = PortCore_getset,
+    .tp_members = PortCore_members,
+};
+
+/* ---- Calculation ------------------------------------------------------------------ */
+
+typedef struct {
+    PyObject_HEAD
+    PyObject *executor;      /* its ``plans`` (a tuple of (steps, skipped)) each iteration */
+    LoopStateObject *state;
+    PyObject *feeders;       /* a tuple of callables */
+    PyObject *now;           /* NULL: CLOCK_MONOTONIC read directly */
+    PyObject *sleep_until;   /* NULL: clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME) */
+    Py_buffer running, words, scratch;
+    int held;                /* the three buffers are held */
+    long long origin, ros_offset;
+    Py_ssize_t width;        /* a timing row's words */
+    Py_ssize_t nwords;       /* words in the ring */
+    Py_ssize_t c_iteration, c_scheduled, c_jitter, c_calc, c_phase;
+} CalculationObject;
+
+static inline long long
+monotonic_ns(void)
+{
+    struct timespec ts;
+    clock_gettime(CLOCK_MONOTONIC, &ts);
+    return (long long)ts.tv_sec * 1000000000LL + ts.tv_nsec;
+}
+
+/* the clock's time; -1 with an exception set on failure */
+static inline long long
+calc_now(CalculationObject *c)
+{
+    if (c->now == NULL)
+        return monotonic_ns();
+    PyObject *res = PyObject_Vectorcall(c->now, NULL, 0, NULL);
+    if (res == NULL)
+        return -1;
+    long long t = PyLong_AsLongLong(res);
+    Py_DECREF(res);
+    if (t == -1 && PyErr_Occurred())
+        return -1;
+    return t;
+}
+
+/* sleep until the absolute deadline; 0, or -1 with an exception (a signal's handler
+ * raised). A signal that interrupts the sleep ends it: the loop looks at its stop word. */
+static int
+calc_sleep(CalculationObject *c, long long deadline)
+{
+    if (c->sleep_until != NULL) {
+        PyObject *arg = PyLong_FromLongLong(deadline);
+        if (arg == NULL)
+            return -1;
+        PyObject *res = PyObject_CallOneArg(c->sleep_until, arg);
+        Py_DECREF(arg);
+        if (res == NULL)
+            return -1;
+        Py_DECREF(res);
+        return 0;
+    }
+    struct timespec ts;
+    ts.tv_sec = (time_t)(deadline / 1000000000LL);
+    ts.tv_nsec = (long)(deadline % 1000000000LL);
+    int rc;
+    Py_BEGIN_ALLOW_THREADS
+    rc = clock_nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, &ts, NULL);
+    Py_END_ALLOW_THREADS
+    if (rc == EINTR)
+        return PyErr_CheckSignals();
+    if (rc != 0) {
+        errno = rc;
+        PyErr_SetFromErrno(PyExc_OSError);
+        return -1;
+    }
+    return 0;
+}
+
+static void
+calc_release(CalculationObject *c)
+{
+    if (c->held) {
+        PyBuffer_Release(&c->running);
+        PyBuffer_Release(&c->words);
+        PyBuffer_Release(&c->scratch);
+        c->held = 0;
+    }
+}
+
+static int
+get_words(PyObject *obj, Py_buffer *view, const char *what)
+{
+    if (PyObject_GetBuffer(obj, view, PyBUF_WRITABLE | PyBUF_FORMAT | PyBUF_C_CONTIGUOUS) < 0)
+        return -1;
+    if (view->itemsize != 8 || view->format == NULL ||
+        (strcmp(view->format, "q") != 0 && strcmp(view->format, "l") != 0 &&
+         strcmp(view->format, "<q") != 0 && strcmp(view->format, "=q") != 0)) {
+        PyErr_Format(PyExc_TypeError, "Calculation: %s must be int64 words", what);
+        PyBuffer_Release(view);
+        return -1;
+    }
+    return 0;
+}
+
+static int
+Calculation_init(CalculationObject *c, PyObject *args, PyObject *kwds)
+{
+    static char *kwlist[] = {"executor", "state", "feeders", "now", "sleep_until", "native",
+                             "running", "words", "scratch", "origin", "ros_offset", "width",
+                             "columns", NULL};
+    PyObject *executor, *state, *feeders, *now, *sleep_until, *running, *words, *scratch;
+    int native;
+    long long origin, ros_offset;
+    Py_ssize_t width;
+    Py_ssize_t cols[5];
+    if (!PyArg_ParseTupleAndKeywords(
+            args, kwds, "OO!O!OOpOOOLLn(nnnnn):Calculation", kwlist, &executor, &LoopStateType,
+            &state, &PyTuple_Type, &feeders, &now, &sleep_until, &native, &running, &words,
+            &scratch, &origin, &ros_offset, &width, &cols[0], &cols[1], &cols[2], &cols[3],
+            &cols[4]))
+        return -1;
+    calc_release(c);
+    if (get_words(running, &c->running, "the running word") < 0)
+        return -1;
+    if (get_words(words, &c->words, "the timing ring") < 0) {
+        PyBuffer_Release(&c->running);
+        return -1;
+    }
+    if (get_words(scratch, &c->scratch, "the scratch row") < 0) {
+        PyBuffer_Release(&c->running);
+        PyBuffer_Release(&c->words);
+        return -1;
+    }
+    c->held = 1;
+    for (int k = 0; k < 5; k++) {
+        if (cols[k] < 0 || cols[k] >= width) {
+            calc_release(c);
+            PyErr_SetString(PyExc_ValueError, "Calculation: a column outside the row");
+            return -1;
+        }
+    }
+    if (c->running.len < 8 || c->scratch.len < 8 * width || width <= 0) {
+        calc_release(c);
+        PyErr_SetString(PyExc_ValueError, "Calculation: the running word or scratch too short");
+        return -1;
+    }
+    Py_XSETREF(c->executor, Py_NewRef(executor));
+    Py_XSETREF(c->state, (LoopStateObject *)Py_NewRef(state));
+    Py_XSETREF(c->feeders, Py_NewRef(feeders));
+    Py_CLEAR(c->now);
+    Py_CLEAR(c->sleep_until);
+    if (!native) { /* another clock: its own now and sleep, called each time */
+        c->now = Py_NewRef(now);
+        c->sleep_until = Py_NewRef(sleep_until);
+    }
+    c->origin = origin;
+    c->ros_offset = ros_offset;
+    c->width = width;
+    c->nwords = c->words.len / 8;
+    c->c_iteration = cols[0];
+    c->c_scheduled = cols[1];
+    c->c_jitter = cols[2];
+    c->c_calc = cols[3];
+    c->c_phase = cols[4];
+    return 0;
+}
+
+static int
+Calculation_traverse(CalculationObject *c, visitproc visit, void *arg)
+{
+    Py_VISIT(c->executor);
+    Py_VISIT(c->state);
+    Py_VISIT(c->feeders);
+    Py_VISIT(c->now);
+    Py_VISIT(c->sleep_until);
+    return 0;
+}
+
+static int
+Calculation_clear(CalculationObject *c)
+{
+    calc_release(c);
+    Py_CLEAR(c->executor);
+    Py_CLEAR(c->state);
+    Py_CLEAR(c->feeders);
+    Py_CLEAR(c->now);
+    Py_CLEAR(c->sleep_until);
+    return 0;
+}
+
+static void
+Calculation_dealloc(CalculationObject *c)
+{
+    PyObject_GC_UnTrack(c);
+    Calculation_clear(c);
+    Py_TYPE(c)->tp_free((PyObject *)c);
+}
+
+static PyObject *
+bad_plan(PyObject *plans)
+{
+    Py_XDECREF(plans);
+    PyErr_SetString(PyExc_TypeError,
+                    "Calculation: executor.plans must be a tuple of (steps, skipped) tuples");
+    return NULL;
+}
+
+/* iterate(i, deadline, b): sleep until deadline, then the timed part of iteration i;
+ * its timing row is words[b:] (b < 0: the scratch row, the ring was full). Returns
+ * the time it ended. An update that raises leaves its column in the running word. */
+static PyObject *
+Calculation_iterate(CalculationObject *c, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 3) {
+        PyErr_SetString(PyExc_TypeError, "iterate(i, deadline, b)");
+        return NULL;
+    }
+    if (!c->held) {
+        PyErr_SetString(PyExc_RuntimeError, "Calculation: released");
+        return NULL;
+    }
+    long long i = PyLong_AsLongLong(args[0]);
+    if (i == -1 && PyErr_Occurred())
+        return NULL;
+    long long deadline = PyLong_AsLongLong(args[1]);
+    if (deadline == -1 && PyErr_Occurred())
+        return NULL;
+    Py_ssize_t b = PyLong_AsSsize_t(args[2]);
+    if (b == -1 && PyErr_Occurred())
+        return NULL;
+    long long *row;
+    if (b >= 0) {
+        if (b + c->width > c->nwords) {
+            PyErr_SetString(PyExc_IndexError, "Calculation: a row past the ring's end");
+            return NULL;
+        }
+        row = (long long *)c->words.buf + b;
+    } else {
+        row = (long long *)c->scratch.buf;
+    }
+    long long *running = (long long *)c->running.buf;
+    Py_ssize_t width = c->width;
+
+    if (calc_sleep(c, deadline) < 0)
+        return NULL;
+    long long t0 = calc_now(c);
+    if (t0 == -1 && PyErr_Occurred())
+        return NULL;
+    LoopStateObject *state = c->state;
+    state->iteration = i;
+    state->time_ns = deadline - c->origin;
+    state->stamp_ns = deadline + c->ros_offset;
+    long long t = t0;
+    Py_ssize_t nf = PyTuple_GET_SIZE(c->feeders);
+    if (nf) { /* in the iteration's time, not in its first component's */
+        for (Py_ssize_t f = 0; f < nf; f++) {
+            PyObject *res = PyObject_Vectorcall(PyTuple_GET_ITEM(c->feeders, f), NULL, 0, NULL);
+            if (res == NULL)
+                return NULL;
+            Py_DECREF(res);
+        }
+        t = calc_now(c);
+        if (t == -1 && PyErr_Occurred())
+            return NULL;
+    }
+    /* read after the feeders (a swap applies now); one plan per phase */
+    PyObject *plans = PyObject_GetAttr(c->executor, str_plans);
+    if (plans == NULL)
+        return NULL;
+    if (!PyTuple_Check(plans) || PyTuple_GET_SIZE(plans) == 0)
+        return bad_plan(plans);
+    Py_ssize_t h = PyTuple_GET_SIZE(plans);
+    long long phase = i % h;
+    if (phase < 0)
+        phase += h;
+    PyObject *plan = PyTuple_GET_ITEM(plans, phase);
+    if (!PyTuple_Check(plan) || PyTuple_GET_SIZE(plan) != 2)
+        return bad_plan(plans);
+    PyObject *steps = PyTuple_GET_ITEM(plan, 0), *skipped = PyTuple_GET_ITEM(plan, 1);
+    if (!PyTuple_Check(steps) || !PyTuple_Check(skipped))
+        return bad_plan(plans);
+    Py_ssize_t n = PyTuple_GET_SIZE(steps);
+    for (Py_ssize_t s = 0; s < n; s++) {
+        PyObject *step = PyTuple_GET_ITEM(steps, s);
+        if (!PyTuple_Check(step) || PyTuple_GET_SIZE(step) != 2)
+            return bad_plan(plans);
+        Py_ssize_t k = PyLong_AsSsize_t(PyTuple_GET_ITEM(step, 0));
+        if (k < 0 || k >= width) {
+            Py_DECREF(plans);
+            if (!PyErr_Occurred())
+                PyErr_SetString(PyExc_IndexError, "Calculation: a step's column outside the row");
+            return NULL;
+        }
+        running[0] = k;
+        PyObject *res = PyObject_Vectorcall(PyTuple_GET_ITEM(step, 1), NULL, 0, NULL);
+        if (res == NULL) {
+            Py_DECREF(plans);
+            return NULL; /* the running word names the column */
+        }
+        Py_DECREF(res);
+        long long t1 = c->now == NULL ? monotonic_ns() : calc_now(c);
+        if (t1 == -1 && PyErr_Occurred()) {
+            Py_DECREF(plans);
+            return NULL;
+        }
+        row[k] = t1 - t;
+        t = t1;
+    }
+    running[0] = -1;
+    Py_ssize_t ns = PyTuple_GET_SIZE(skipped);
+    for (Py_ssize_t s = 0; s < ns; s++) {
+        Py_ssize_t col = PyLong_AsSsize_t(PyTuple_GET_ITEM(skipped, s));
+        if (col < 0 || col >= width) {
+            Py_DECREF(plans);
+            if (!PyErr_Occurred())
+                PyErr_SetString(PyExc_IndexError, "Calculation: a skipped column outside the row");
+            return NULL;
+        }
+        row[col] = -1; /* SKIPPED */
+    }
+    Py_DECREF(plans);
+    row[c->c_iteration] = i;
+    row[c->c_scheduled] = deadline;
+    row[c->c_jitter] = t0 - deadline;
+    row[c->c_calc] = t - t0;
+    row[c->c_phase] = phase;
+    return PyLong_FromLongLong(t);
+}
+
+static PyObject *
+Calculation_release(CalculationObject *c, PyObject *Py_UNUSED(ignored))
+{
+    calc_release(c);
+    Py_RETURN_NONE;
+}
+
+static PyMethodDef Calculation_methods[] = {
+    {"iterate", (PyCFunction)(void (*)(void))Calculation_iterate, METH_FASTCALL,
+     "iterate(i, deadline, b)\n--\n\nThe timed part of iteration i; returns when it ended."},
+    {"release", (PyCFunction)Calculation_release, METH_NOARGS,
+     "release()\n--\n\nLet go of the running word, the ring and the scratch row."},
+    {NULL},
+};
+
+static PyTypeObject CalculationType = {
+    PyVarObject_HEAD_INIT(NULL, 0)
+    .tp_name = "rtcf._core._compiled.Calculation",
+    .tp_doc = "The timed part of the loop's iterations (see rtcf._core._executor).",
+    .tp_basicsize = sizeof(CalculationObject),
+    .tp_flags = Py_TPFLAGS_DEFAULT | Py_TPFLAGS_HAVE_GC,
+    .tp_new = PyType_GenericNew,
+    .tp_init = (initproc)Calculation_init,
+    .tp_dealloc = (destructor)Calculation_dealloc,
+    .tp_traverse = (traverseproc)Calculation_traverse,
+    .tp_clear = (inquiry)Calculation_clear,
+    .tp_methods = Calculation_methods,
+};
+
+/* ---- RingGate ---------------------------------------------------------------------- */
+
+/* A feeder that has work only now and then (control records from the supervisor): the
+ * common case, an empty ring, costs two word reads in C rather than a Python call. */
+typedef struct {
+    PyObject_HEAD
+    Py_buffer words;
+    int held;
+    Py_ssize_t head, tail;
+    PyObject *fn;
+} RingGateObject;
+
+static int
+RingGate_init(RingGateObject *g, PyObject *args, PyObject *kwds)
+{
+    static char *kwlist[] = {"words", "head", "tail", "fn", NULL};
+    PyObject *words, *fn;
+    Py_ssize_t head, tail;
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "OnnO:RingGate", kwlist, &words, &head, &tail,
+                                     &fn))
+        return -1;
+    if (g->held) {
+        PyBuffer_Release(&g->words);
+        g->held = 0;
+    }
+    if (get_words(words, &g->words, "a ring's counters") < 0)
+        return -1;
+    g->held = 1;
+    Py_ssize_t n = g->words.len / 8;
+    if (head < 0 || tail < 0 || head >= n || tail >= n) {
+        PyBuffer_Release(&g->words);
+        g->held = 0;
+        PyErr_SetString(PyExc_IndexError, "RingGate: a counter outside the words");
+        return -1;
+    }
+    g->head = head;
+    g->tail = tail;
+    Py_XSETREF(g->fn, Py_NewRef(fn));
+    return 0;
+}
+
+static PyObject *
+RingGate_call(RingGateObject *g, PyObject *args, PyObject *kwds)
+{
+    if (!g->held)
+        Py_RETURN_NONE;
+    volatile long long *w = (volatile long long *)g->words.buf;
+    if (w[g->head] == w[g->tail])
+        Py_RETURN_NONE;
+    return PyObject_CallNoArgs(g->fn);
+}
+
+static PyObject *
+RingGate_release(RingGateObject *g, PyObject *Py_UNUSED(ignored))
+{
+    if (g->held) {
+        PyBuffer_Release(&g->words);
+        g->held = 0;
+    }
+    Py_RETURN_NONE;
+}
+
+static int
+RingGate_traverse(RingGateObject *g, visitproc visit, void *arg)
+{
+    Py_VISIT(g->fn);
+    return 0;
+}
+
+static int
+RingGate_clear(RingGateObject *g)
+{
+    if (g->held) {
+        PyBuffer_Release(&g->words);
+        g->held = 0;
+    }
+    Py_CLEAR(g->fn);
+    return 0;
+}
+
+static void
+RingGate_dealloc(RingGateObject *g)
+{
+    PyObject_GC_UnTrack(g);
+    RingGate_clear(g);
+    Py_TYPE(g)->tp_free((PyObject *)g);
+}
+
+static PyMethodDef RingGate_methods[] = {
+    {"release", (PyCFunction)RingGate_release, METH_NOARGS,
+     "release()\n--\n\nLet go of the ring's words (calls do nothing after)."},
+    {NULL},
+};
+
+static PyMemberDef RingGate_members[] = {
+    {"fn", T_OBJECT, offsetof(RingGateObject, fn), READONLY, "What a call runs when due."},
+    {NULL},
+};
+
+static PyTypeObject RingGateType = {
+    PyVarObject_HEAD_INIT(NULL, 0)
+    .tp_name = "rtcf._core._compiled.RingGate",
+    .tp_doc = "RingGate(words, head, tail, fn): call fn when words[head] != words[tail].",
+    .tp_basicsize = sizeof(RingGateObject),
+    .tp_flags = Py_TPFLAGS_DEFAULT | Py_TPFLAGS_HAVE_GC,
+    .tp_new = PyType_GenericNew,
+    .tp_init = (initproc)RingGate_init,
+    .tp_call = (ternaryfunc)RingGate_call,
+    .tp_dealloc = (destructor)RingGate_dealloc,
+    .tp_traverse = (traverseproc)RingGate_traverse,
+    .tp_clear = (inquiry)RingGate_clear,
+    .tp_methods = RingGate_methods,
+    .tp_members = RingGate_members,
+};
+
+/* ---- HeartbeatWatch ----------------------------------------------------------------- */
+
+/* A feeder: ends the loop (the stop word to ABORT) when the supervisor's heartbeat word
+ * has not moved for ``limit`` iterations. */
+typedef struct {
+    PyObject_HEAD
+    Py_buffer cell, stop;
+    int held;
+    long long last, left, limit, abort;
+    char fired;
+} HeartbeatObject;
+
+static int
+Heartbeat_init(HeartbeatObject *h, PyObject *args, PyObject *kwds)
+{
+    static char *kwlist[] = {"cell", "limit", "stop", "abort", NULL};
+    PyObject *cell, *stop;
+    long long limit, abort_reason;
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "OLOL:HeartbeatWatch", kwlist, &cell, &limit,
+                                     &stop, &abort_reason))
+        return -1;
+    if (h->held) {
+        PyBuffer_Release(&h->cell);
+        PyBuffer_Release(&h->stop);
+        h->held = 0;
+    }
+    if (limit <= 0) {
+        PyErr_SetString(PyExc_ValueError, "HeartbeatWatch: the limit must be positive");
+        return -1;
+    }
+    if (get_words(cell, &h->cell, "the heartbeat word") < 0)
+        return -1;
+    if (get_words(stop, &h->stop, "the stop word") < 0) {
+        PyBuffer_Release(&h->cell);
+        return -1;
+    }
+    h->held = 1;
+    h->last = ((volatile long long *)h->cell.buf)[0];
+    h->left = h->limit = limit;
+    h->abort = abort_reason;
+    h->fired = 0;
+    return 0;
+}
+
+static PyObject *
+Heartbeat_call(HeartbeatObject *h, PyObject *args, PyObject *kwds)
+{
+    if (!h->held)
+        Py_RETURN_NONE;
+    long long beat = ((volatile long long *)h->cell.buf)[0];
+    if (beat != h->last) {
+        h->last = beat;
+        h->left = h->limit;
+        Py_RETURN_NONE;
+    }
+    if (--h->left == 0) {
+        h->fired = 1;
+        ((volatile long long *)h->stop.buf)[0] = h->abort;
+    }
+    Py_RETURN_NONE;
+}
+
+static PyObject *
+Heartbeat_release(HeartbeatObject *h, PyObject *Py_UNUSED(ignored))
+{
+    if (h->held) {
+        PyBuffer_Release(&h->cell);
+        PyBuffer_Release(&h->stop);
+        h->held = 0;
+    }
+    Py_RETURN_NONE;
+}
+
+static void
+Heartbeat_dealloc(HeartbeatObject *h)
+{
+    Heartbeat_release(h, NULL);
+    Py_TYPE(h)->tp_free((PyObject *)h);
+}
+
+static PyMethodDef Heartbeat_methods[] = {
+    {"release", (PyCFunction)Heartbeat_release, METH_NOARGS,
+     "release()\n--\n\nLet go of the two words (calls do nothing after)."},
+    {NULL},
+};
+
+static PyMemberDef Heartbeat_members[] = {
+    {"fired", T_BOOL, offsetof(HeartbeatObject, fired), 0, "Whether it ended the loop."},
+    {"last", T_LONGLONG, offsetof(HeartbeatObject, last), READONLY, NULL},
+    {"left", T_LONGLONG, offsetof(HeartbeatObject, left), READONLY, NULL},
+    {"limit", T_LONGLONG, offsetof(HeartbeatObject, limit), READONLY, NULL},
+    {NULL},
+};
+
+static PyTypeObject HeartbeatType = {
+    PyVarObject_HEAD_INIT(NULL, 0)
+    .tp_name = "rtcf._core._compiled.HeartbeatWatch",
+    .tp_doc = "HeartbeatWatch(cell, limit, stop, abort): a feeder that ends the loop when "
+              "cell[0] has not moved for limit iterations.",
+    .tp_basicsize = sizeof(HeartbeatObject),
+    .tp_flags = Py_TPFLAGS_DEFAULT,
+    .tp_new = PyType_GenericNew,
+    .tp_init = (initproc)Heartbeat_init,
+    .tp_call = (ternaryfunc)Heartbeat_call,
+    .tp_dealloc = (destructor)Heartbeat_dealloc,
+    .tp_methods = Heartbeat_methods,
+    .tp_members = Heartbeat_members,
+};
+
+/* ---- the module ------------------------------------------------------------------- */
+
+static PyObject *
+set_flow_status(PyObject *module, PyObject *const *args, Py_ssize_t nargs)
+{
+    if (nargs != 3) {
+        PyErr_SetString(PyExc_TypeError, "set_flow_status(no_data, old_data, new_data)");
+        return NULL;
+    }
+    for (int k = 0; k < 3; k++)
+        Py_XSETREF(flow_status[k], Py_NewRef(args[k]));
+    Py_RETURN_NONE;
+}
+
+static PyMethodDef module_methods[] = {
+    {"set_flow_status", (PyCFunction)(void (*)(void))set_flow_status, METH_FASTCALL,
+     "set_flow_status(no_data, old_data, new_data)\n--\n\nWhat a port's status returns."},
+    {NULL},
+};
+
+static struct PyModuleDef module = {
+    PyModuleDef_HEAD_INIT, "rtcf._core._compiled",
+    "The loop's hot path in C (rtcf._core._interpreted is the same in Python).", -1,
+    module_methods,
+};
+
+PyMODINIT_FUNC
+PyInit__compiled(void)
+{
+    if (PyType_Ready(&SlotType) < 0 || PyType_Ready(&LoopStateType) < 0 ||
+        PyType_Ready(&PortCoreType) < 0 || PyType_Ready(&CalculationType) < 0 ||
+        PyType_Ready(&RingGateType) < 0 || PyType_Ready(&HeartbeatType) < 0)
+        return NULL;
+    str_plans = PyUnicode_InternFromString("plans");
+    if (str_plans == NULL)
+        return NULL;
+    PyObject *m = PyModule_Create(&module);
+    if (m == NULL)
+        return NULL;
+    if (PyModule_AddObjectRef(m, "Slot", (PyObject *)&SlotType) < 0 ||
+        PyModule_AddObjectRef(m, "LoopState", (PyObject *)&LoopStateType) < 0 ||
+        PyModule_AddObjectRef(m, "PortCore", (PyObject *)&PortCoreType) < 0 ||
+        PyModule_AddObjectRef(m, "Calculation", (PyObject *)&CalculationType) < 0 ||
+        PyModule_AddObjectRef(m, "RingGate", (PyObject *)&RingGateType) < 0 ||
+        PyModule_AddObjectRef(m, "HeartbeatWatch", (PyObject *)&HeartbeatType) < 0) {
+        Py_DECREF(m);
+        return NULL;
+    }
+    return m;
+}

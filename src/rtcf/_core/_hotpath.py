@@ -1,0 +1,63 @@
+"""Which hot path runs: the compiled one (``_compiled.c``) or the same in Python.
+
+The compiled module is built when rtcf is installed with a C compiler at hand. Where
+it is missing, the loop runs the Python one (``_interpreted.py``) and says so once;
+``RTCF_PURE_PYTHON=1`` asks for the Python one. Both give the same values; the
+compiled one costs a fraction per component (docs/performance.md#hot-path).
+"""
+
+from __future__ import annotations
+
+import os
+from typing import TYPE_CHECKING, Any
+
+from . import _interpreted
+
+_module: Any = _interpreted
+#: "compiled" or "Python"; and, for Python, why (empty when compiled)
+HOT_PATH = "Python"
+WHY = ""
+if os.environ.get("RTCF_PURE_PYTHON", "") not in ("", "0"):
+    WHY = "RTCF_PURE_PYTHON is set"
+else:
+    try:
+        from . import _compiled  # type: ignore[attr-defined]
+    except ImportError as exc:
+        WHY = (
+            f"the compiled module was not built ({exc}): install a C compiler and "
+            "python3-dev, then reinstall rtcf"
+        )
+    else:
+        _module = _compiled
+        HOT_PATH = "compiled"
+
+if TYPE_CHECKING:  # the two have the same API: type-check against the Python one
+    from ._interpreted import (
+        Calculation,
+        HeartbeatWatch,
+        LoopState,
+        PortCore,
+        RingGate,
+        Slot,
+        set_flow_status,
+    )
+else:
+    Slot = _module.Slot
+    LoopState = _module.LoopState
+    PortCore = _module.PortCore
+    Calculation = _module.Calculation
+    RingGate = _module.RingGate
+    HeartbeatWatch = _module.HeartbeatWatch
+    set_flow_status = _module.set_flow_status
+
+
+def describe() -> str:
+    """One phrase for the run's report: which path, and why Python if it is."""
+    return "compiled (C)" if HOT_PATH == "compiled" else f"Python ({WHY})"
+
+
+def warning() -> str | None:
+    """The one line to show when the compiled path was expected but is missing."""
+    if HOT_PATH == "compiled" or WHY == "RTCF_PURE_PYTHON is set":
+        return None
+    return f"the loop's hot path runs in Python, several times slower per component: {WHY}"

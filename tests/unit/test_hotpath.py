@@ -1,0 +1,289 @@
+"""The loop's hot path, compiled (rtcf._core._compiled) and in Python
+(rtcf._core._interpreted), side by side: the same semantics, call for call.
+
+Whichever one rtcf runs (RTCF_PURE_PYTHON), both are tested here; the compiled one
+must have been built (CI has a C compiler everywhere it runs).
+"""
+
+from __future__ import annotations
+
+import gc
+import sys
+from array import array
+from collections.abc import Callable
+from types import ModuleType
+from typing import Any
+
+import pytest
+
+from rtcf._core import _hotpath, _interpreted
+from rtcf._core._ports import FlowStatus
+
+try:
+    from rtcf._core import _compiled  # type: ignore[attr-defined]
+except ImportError as exc:  # a failure, not a skip: CI builds it
+    raise AssertionError(f"rtcf._core._compiled is not built: {exc}") from None
+
+MODULES = [pytest.param(_compiled, id="compiled"), pytest.param(_interpreted, id="Python")]
+COLUMNS = (0, 1, 2, 3, 5)  # iteration, scheduled, jitter, calc, phase (4: overran)
+F = 6  # the first component's column
+
+
+class Port:
+    """A port class over a module's PortCore, as rtcf._core._ports builds its own."""
+
+    @staticmethod
+    def of(m: ModuleType) -> tuple[type, type]:
+        class Out(m.PortCore):  # type: ignore[name-defined,misc]
+            __slots__ = ()
+            write = m.PortCore._write
+
+        class Tapped(m.PortCore):  # type: ignore[name-defined,misc]
+            __slots__ = ()
+            write = m.PortCore._write_tapped
+
+        class In(m.PortCore):  # type: ignore[name-defined,misc]
+            __slots__ = ()
+            read = m.PortCore._read
+            status = m.PortCore._status
+            has_new_data = m.PortCore._has_new_data
+            iteration = m.PortCore._iteration
+
+        m.set_flow_status(FlowStatus.NO_DATA, FlowStatus.OLD_DATA, FlowStatus.NEW_DATA)
+        return Out, In, Tapped  # type: ignore[return-value]
+
+
+def test_the_path_rtcf_runs_is_one_of_them_and_says_which() -> None:
+    assert _hotpath.Slot in (_compiled.Slot, _interpreted.Slot)
+    compiled = _hotpath.Slot is _compiled.Slot
+    assert _hotpath.HOT_PATH == ("compiled" if compiled else "Python")
+    assert _hotpath.describe().startswith("compiled (C)" if compiled else "Python (")
+
+
+@pytest.mark.parametrize("m", MODULES)
+def test_a_slot_starts_empty(m: ModuleType) -> None:
+    s = m.Slot()
+    assert (s.value, s.seq, s.iteration) == (None, 0, -1)
+    s.value, s.seq, s.iteration = 2.5, 3, 7
+    assert (s.value, s.seq, s.iteration) == (2.5, 3, 7)
+
+
+@pytest.mark.parametrize("m", MODULES)
+def test_loop_state(m: ModuleType) -> None:
+    st = m.LoopState(3.0)
+    assert st.frequency == 3.0 and st.period_ns == round(1e9 / 3.0)
+    assert (st.iteration, st.time_ns, st.stamp_ns, st.running) == (-1, 0, 0, False)
+    assert m.LoopState().period_ns == 1_000_000_000
+    with pytest.raises(ValueError, match="frequency must be positive"):
+        m.LoopState(0.0)
+
+
+@pytest.mark.parametrize("m", MODULES)
+def test_write_read_status_and_iteration(m: ModuleType) -> None:
+    Out, In, _ = Port.of(m)
+    st = m.LoopState(100.0)
+    out, inp = Out(), In()
+    out._state = st
+    inp._slot = out._slot  # connected
+    assert inp.status is FlowStatus.NO_DATA and not inp.has_new_data and inp.iteration == -1
+    assert inp.read() is None and inp.status is FlowStatus.NO_DATA
+    st.iteration = 4
+    value = object()
+    out.write(value)
+    assert inp.status is FlowStatus.NEW_DATA and inp.has_new_data and inp.iteration == 4
+    assert inp.read() is value
+    assert inp.status is FlowStatus.OLD_DATA and not inp.has_new_data
+    out.write(None)  # a write of None is a write
+    assert inp.status is FlowStatus.NEW_DATA and inp.read() is None
+    assert out._slot.seq == 2 and inp._seen == 2
+
+
+@pytest.mark.parametrize("m", MODULES)
+def test_a_port_outside_a_loop_records_iteration_minus_one(m: ModuleType) -> None:
+    Out, _, _ = Port.of(m)
+    out = Out()
+    assert out._state is None and out._tap is None
+    out.write(1.0)
+    assert out._slot.iteration == -1 and out._slot.seq == 1
+    st = m.LoopState()
+    st.iteration = 9
+    out._state = st
+    out.write(2.0)
+    assert out._slot.iteration == 9 and out._state is st
+    out._state = None
+    out.write(3.0)
+    assert out._slot.iteration == -1
+
+
+@pytest.mark.parametrize("m", MODULES)
+def test_a_tapped_write_hands_the_value_to_the_tap_after_the_slot(m: ModuleType) -> None:
+    Out, _, Tapped = Port.of(m)
+    out = Out()
+    seen: list[tuple[Any, int]] = []
+    out._tap = lambda v: seen.append((v, out._slot.seq))
+    out.write(1.0)  # the plain class does not call it
+    out.__class__ = Tapped  # as a mapped or recorded port's class is swapped
+    out.write(2.0)
+    assert seen == [(2.0, 2)]
+    out._tap = None
+    out.write(3.0)
+    assert out._slot.value == 3.0 and seen == [(2.0, 2)]
+    out._tap = lambda v: 1 / 0
+    with pytest.raises(ZeroDivisionError):
+        out.write(4.0)
+    assert out._slot.value == 4.0  # the slot has it: the tap failed after
+
+
+def test_the_compiled_port_refuses_what_is_not_its_slot_or_state() -> None:
+    Out, _, _ = Port.of(_compiled)
+    out = Out()
+    with pytest.raises(TypeError, match="_slot must be a Slot"):
+        out._slot = object()
+    with pytest.raises(TypeError, match="_state must be a LoopState or None"):
+        out._state = object()
+
+
+class _Executor:
+    def __init__(self, plans: tuple[Any, ...]) -> None:
+        self.plans = plans
+
+
+def _calculation(
+    m: ModuleType, plans: tuple[Any, ...], feeders: tuple[Callable[[], object], ...] = (),
+    width: int = F + 3, slots: int = 4,
+) -> tuple[Any, Any, array[int], array[int], array[int], list[int]]:
+    clock = [1000]  # a clock that moves 10 ns per read
+    sleeps: list[int] = []
+
+    def now() -> int:
+        clock[0] += 10
+        return clock[0]
+
+    def sleep_until(deadline: int) -> None:
+        sleeps.append(deadline)
+        clock[0] = max(clock[0], deadline)
+
+    st = m.LoopState(1000.0)
+    running = array("q", [-1])
+    words = array("q", bytes(8 * width * slots))
+    scratch = array("q", bytes(8 * width))
+    calc = m.Calculation(
+        _Executor(plans), st, feeders, now, sleep_until, False, running, words, scratch,
+        500, 7, width, COLUMNS,
+    )
+    return calc, st, running, words, scratch, sleeps
+
+
+@pytest.mark.parametrize("m", MODULES)
+def test_an_iteration_sleeps_runs_its_phases_plan_and_fills_its_row(m: ModuleType) -> None:
+    calls: list[tuple[str, int]] = []
+    st_box: list[Any] = []
+
+    def upd(name: str) -> Callable[[], None]:
+        return lambda: calls.append((name, st_box[0].iteration))
+
+    a, b, c = upd("a"), upd("b"), upd("c")
+    plans = (((F, a), (F + 1, b), (F + 2, c)), ()), (((F, a), (F + 2, c)), (F + 1,))
+    fed: list[int] = []
+    calc, st, running, words, scratch, sleeps = _calculation(
+        m, plans, feeders=(lambda: fed.append(1),)
+    )
+    st_box.append(st)
+    w = F + 3
+    t = calc.iterate(3, 2000, w)  # phase 1 (3 % 2), into the second row
+    assert sleeps == [2000]
+    assert calls == [("a", 3), ("c", 3)] and fed == [1]
+    assert (st.iteration, st.time_ns, st.stamp_ns) == (3, 2000 - 500, 2000 + 7)
+    row = words[w : 2 * w]
+    # read after the sleep (2010), after the feeders (2020), after a (2030) and c (2040)
+    assert t == 2040
+    assert row[0] == 3 and row[1] == 2000 and row[2] == 10 and row[3] == 30 and row[5] == 1
+    assert row[F] == 10 and row[F + 1] == -1 and row[F + 2] == 10
+    assert running[0] == -1
+    assert scratch.tolist() == [0] * w
+    calls.clear()
+    calc.iterate(4, 3000, -1)  # ring full: the scratch row
+    assert calls == [("a", 4), ("b", 4), ("c", 4)]
+    assert scratch[0] == 4 and scratch[5] == 0 and scratch[F + 1] == 10
+    calc.release()
+    with pytest.raises((RuntimeError, TypeError)):
+        calc.iterate(5, 4000, 0)
+
+
+@pytest.mark.parametrize("m", MODULES)
+def test_an_update_that_raises_leaves_its_column_in_the_running_word(m: ModuleType) -> None:
+    def boom() -> None:
+        raise KeyError("x")
+
+    plans = ((((F, lambda: None), (F + 1, boom)), ()),)
+    calc, st, running, *_ = _calculation(m, plans)
+    with pytest.raises(KeyError):
+        calc.iterate(0, 2000, 0)
+    assert running[0] == F + 1 and st.iteration == 0
+    calc.release()
+
+
+@pytest.mark.parametrize("m", MODULES)
+def test_a_plan_swapped_by_a_feeder_applies_in_the_same_iteration(m: ModuleType) -> None:
+    ran: list[str] = []
+    first = ((((F, lambda: ran.append("old")),), ()),)
+    second = ((((F, lambda: ran.append("new")),), ()),)
+    ex = _Executor(first)
+    calc = m.Calculation(
+        ex, m.LoopState(), (lambda: setattr(ex, "plans", second),), lambda: 0, lambda d: None,
+        False, array("q", [-1]), array("q", bytes(8 * (F + 3))), array("q", bytes(8 * (F + 3))),
+        0, 0, F + 3, COLUMNS,
+    )
+    calc.iterate(0, 0, 0)
+    assert ran == ["new"]
+
+
+def test_the_compiled_calculation_refuses_rows_and_plans_outside_its_words() -> None:
+    calc, *_ = _calculation(_compiled, ((((F + 9, lambda: None),), ()),), slots=1)
+    with pytest.raises(IndexError):
+        calc.iterate(0, 0, 0)  # a column past the row
+    calc, *_ = _calculation(_compiled, ((((F, lambda: None),), ()),), slots=1)
+    with pytest.raises(IndexError):
+        calc.iterate(0, 0, 1)  # a row past the ring
+    calc, *_ = _calculation(_compiled, ("not a plan",), slots=1)
+    with pytest.raises(TypeError, match="plans"):
+        calc.iterate(0, 0, 0)
+
+
+@pytest.mark.parametrize("m", MODULES)
+def test_a_ring_gate_calls_only_when_the_counters_differ(m: ModuleType) -> None:
+    words = array("q", [0, 0, 0])
+    calls: list[int] = []
+    gate = m.RingGate(words, 0, 2, lambda: calls.append(1))
+    gate()
+    assert calls == []
+    words[0] = 1
+    gate()
+    assert calls == [1]
+    gate.release()
+    gate()
+    assert calls == [1]
+
+
+@pytest.mark.parametrize("m", MODULES)
+def test_no_reference_is_leaked_by_a_million_writes_and_reads(m: ModuleType) -> None:
+    Out, In, Tapped = Port.of(m)
+    st = m.LoopState()
+    out, inp = Out(), In()
+    out._state = st
+    inp._slot = out._slot
+    value = object()
+    tap = object.__new__(type("Sink", (), {"__call__": lambda self, v: None}))
+    before = sys.getrefcount(value), sys.getrefcount(st), sys.getrefcount(tap)
+    write, read = out.write, inp.read
+    for _ in range(1_000_000):
+        write(value)
+        read()
+    out.__class__ = Tapped
+    out._tap = tap
+    for _ in range(1000):
+        out.write(value)
+    out._tap = None
+    out.write(None)
+    gc.collect()
+    assert (sys.getrefcount(value), sys.getrefcount(st), sys.getrefcount(tap)) == before
