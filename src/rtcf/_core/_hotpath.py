@@ -22,10 +22,10 @@ if os.environ.get("RTCF_PURE_PYTHON", "") not in ("", "0"):
 else:
     try:
         from . import _compiled  # type: ignore[attr-defined]
-    except ImportError as exc:
+    except ImportError:
         WHY = (
-            f"the compiled module was not built ({exc}): install a C compiler and "
-            "python3-dev, then reinstall rtcf"
+            "rtcf._core._compiled was not built when rtcf was installed (no C compiler?): "
+            "install gcc and python3-dev, then reinstall rtcf"
         )
     else:
         _module = _compiled
