@@ -168,7 +168,7 @@ def _calculation(
     words = array("q", bytes(8 * width * slots))
     scratch = array("q", bytes(8 * width))
     calc = m.Calculation(
-        _Executor(plans), st, feeders, now, sleep_until, False, running, words, scratch,
+        _Executor(plans), st, feeders, now, sleep_until, False, False, running, words, scratch,
         500, 7, width, COLUMNS,
     )
     return calc, st, running, words, scratch, sleeps
@@ -231,8 +231,8 @@ def test_a_plan_swapped_by_a_feeder_applies_in_the_same_iteration(m: ModuleType)
     ex = _Executor(first)
     calc = m.Calculation(
         ex, m.LoopState(), (lambda: setattr(ex, "plans", second),), lambda: 0, lambda d: None,
-        False, array("q", [-1]), array("q", bytes(8 * (F + 3))), array("q", bytes(8 * (F + 3))),
-        0, 0, F + 3, COLUMNS,
+        False, False, array("q", [-1]), array("q", bytes(8 * (F + 3))),
+        array("q", bytes(8 * (F + 3))), 0, 0, F + 3, COLUMNS,
     )
     calc.iterate(0, 0, 0)
     assert ran == ["new"]
@@ -287,3 +287,60 @@ def test_no_reference_is_leaked_by_a_million_writes_and_reads(m: ModuleType) -> 
     out.write(None)
     gc.collect()
     assert (sys.getrefcount(value), sys.getrefcount(st), sys.getrefcount(tap)) == before
+
+
+def _records(ring: Any) -> list[tuple[int, int, int, bytes]]:
+    out = []
+    while (rec := ring.pop()) is not None:
+        b = bytes(rec)
+        words = array("q", b[:24])
+        out.append((words[0], words[1], words[2], b[24 : 24 + words[0]]))
+    return out
+
+
+@pytest.mark.parametrize("kind, values", [
+    ("float", [1.5, -0.25, 7]), ("int", [3, -9, True]), ("bool", [True, False, 2]),
+])
+def test_the_compiled_word_tap_pushes_what_the_python_tap_pushes(
+    kind: str, values: list[Any]
+) -> None:
+    from rtcf._core._rings import Ring
+    from rtcf._runtime._codec import codec_for
+    from rtcf._runtime._recording import _WordRecordTap
+
+    codec = codec_for({"float": float, "int": int, "bool": bool}[kind])
+    got = []
+    for compiled in (True, False):
+        buf = bytearray(Ring.nbytes(4, 64))
+        ring = Ring.create(buf, 4, 64)
+        st = _hotpath.LoopState(100.0)
+        tap = _WordRecordTap(ring, codec, st, wait=False)
+        if compiled:  # the port's write calls it (compiled where the path is)
+            assert (tap.call is not tap) == (_hotpath.HOT_PATH == "compiled")
+        call = tap.call if compiled else tap.__call__
+        for k, v in enumerate(values):
+            st.iteration, st.stamp_ns = k, 1000 + k
+            call(v)
+        got.append(_records(ring))
+        tap.release()
+    assert got[0] == got[1] and len(got[0]) == len(values)
+
+
+def test_a_full_ring_counts_the_drop_and_a_bad_value_leaves_it_as_it_was() -> None:
+    from rtcf._core._rings import Ring
+
+    buf = bytearray(Ring.nbytes(2, 32))
+    ring = Ring.create(buf, 2, 32)
+    tap = _compiled.WordTap(ring._ctl, ring.data, 8, 9, 16, 2, 32, _compiled.LoopState(), "float")
+    for v in (1.0, 2.0, 3.0):
+        tap(v)
+    assert ring.dropped == 1 and tap.dropped == 1 and len(ring) == 2
+    ring.pop()
+    with pytest.raises(TypeError):
+        tap("not a number")
+    assert len(ring) == 1
+    tap(4.0)
+    assert len(ring) == 2
+    tap.release()
+    tap(5.0)  # released: nothing happens
+    assert len(ring) == 2

@@ -283,12 +283,13 @@ class Executor:
         # the sleep and the timed part of each iteration (wake-up, loop state, feeders,
         # the plan's updates and their times, the running word): the hot path,
         # compiled where rtcf could build it
-        # native: CLOCK_MONOTONIC with absolute sleeps, which the compiled path calls
-        # itself (no Python between the wake-up and the iteration's first time read)
-        native = now is time.monotonic_ns and bool(getattr(clock, "uses_clock_nanosleep", False))
+        # native: CLOCK_MONOTONIC, and absolute sleeps on it, which the compiled path
+        # calls itself (no Python between the wake-up and the iteration's first time read)
+        native_now = now is time.monotonic_ns
+        native_sleep = native_now and bool(getattr(clock, "uses_clock_nanosleep", False))
         calculation = Calculation(
-            self, state, feeders, now, sleep_until, native, running, words, scratch,
-            origin, ros_offset, timing.width,
+            self, state, feeders, now, sleep_until, native_now, native_sleep, running, words,
+            scratch, origin, ros_offset, timing.width,
             (COL_ITERATION, COL_SCHEDULED, COL_JITTER, COL_CALC, COL_PHASE),
         )
         iterate = calculation.iterate

@@ -39,6 +39,7 @@ if TYPE_CHECKING:  # the two have the same API: type-check against the Python on
         PortCore,
         RingGate,
         Slot,
+        WordTap,
         set_flow_status,
     )
 else:
@@ -48,6 +49,7 @@ else:
     Calculation = _module.Calculation
     RingGate = _module.RingGate
     HeartbeatWatch = _module.HeartbeatWatch
+    WordTap = _module.WordTap  # None on the Python path
     set_flow_status = _module.set_flow_status
 
 

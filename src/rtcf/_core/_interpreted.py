@@ -1,4 +1,5 @@
-"""The loop's hot path in Python: the same as ``_compiled.c``, line for line.
+"""The loop's hot path in Python: the same as ``_compiled.c``, line for line (but for
+the recording's word tap, which the Python path keeps in rtcf._runtime._recording).
 
 It runs where the compiled module could not be built (no C compiler when rtcf was
 installed) and with ``RTCF_PURE_PYTHON=1``; :mod:`rtcf._core._hotpath` picks one.
@@ -136,7 +137,8 @@ class Calculation:
         feeders: tuple[Callable[[], object], ...],
         now: Callable[[], int],
         sleep_until: Callable[[int], object],
-        native: bool,
+        native_now: bool,
+        native_sleep: bool,
         running: MutableSequence[int] | memoryview,
         words: MutableSequence[int] | memoryview,
         scratch: MutableSequence[int] | memoryview,
@@ -148,8 +150,9 @@ class Calculation:
         self._executor = executor
         self._state = state
         self._feeders = feeders
-        # (native: the clock is CLOCK_MONOTONIC with absolute sleeps, which the
-        # compiled path calls itself; here it is the same call)
+        # (native_now, native_sleep: the clock reads CLOCK_MONOTONIC, and sleeps with
+        # clock_nanosleep(TIMER_ABSTIME), which the compiled path calls itself; here
+        # they are the same calls)
         self._now = now
         self._sleep_until = sleep_until
         self._running = running
@@ -260,3 +263,9 @@ class HeartbeatWatch:
     def release(self) -> None:
         """Let go of the two words (calls do nothing after)."""
         self._cell = self._stop = None
+
+
+# A recorded float, int or bool output's tap that the port's write calls directly: only
+# compiled (rtcf._core._compiled.WordTap). The Python path records through
+# rtcf._runtime._recording's own taps, which push the same records.
+WordTap = None

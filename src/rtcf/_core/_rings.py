@@ -30,7 +30,7 @@ from collections.abc import Callable
 from types import TracebackType
 from typing import TYPE_CHECKING, Any
 
-from ._hotpath import RingGate
+from ._hotpath import RingGate, WordTap
 
 if TYPE_CHECKING:
     from _typeshed import ReadableBuffer, WriteableBuffer
@@ -284,6 +284,16 @@ class Ring:
             release_fence()
         ctl[_R_HEAD] = head + 1
         return True
+
+    def word_tap(self, state: Any, kind: str) -> Any:
+        """A callable that pushes ``push_words``' record (8 or 1 bytes, the state's
+        iteration and stamp, the value as ``kind``: float, int or bool) for each value
+        it is called with: compiled, for a port's write to call (None on the Python
+        hot path). ``release()`` it before this ring closes."""
+        if WordTap is None:
+            return None
+        return WordTap(self._ctl, self.data, _R_HEAD, _R_DROPPED, _R_TAIL, self.capacity,
+                       self.record_size, state, kind)
 
     @property
     def dropped(self) -> int:

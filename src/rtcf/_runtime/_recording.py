@@ -106,9 +106,12 @@ def segment_size(topics: list[RecordedTopic]) -> int:
 class RecordTap:
     """Encodes a value with its iteration and stamp into a topic's ring (worker side)."""
 
-    __slots__ = ("_data", "_encode", "_max", "_ring", "_state", "_wait", "_words", "oversize")
+    __slots__ = ("_data", "_encode", "_max", "_ring", "_state", "_wait", "_words", "call",
+                 "oversize")
 
     def __init__(self, ring: Ring, codec: Codec, state: LoopState, wait: bool) -> None:
+        # what a recorded port's write calls with each value: this, or the same compiled
+        self.call: Callable[[Any], None] = self
         self._ring = ring
         self._data = ring.data
         self._words = ring.data.cast("q")
@@ -168,6 +171,11 @@ class _WordRecordTap(RecordTap):
         super().__init__(ring, codec, state, wait)
         self._values = ring.data.cast("d") if codec.kind == "float" else self._words
         self._n = 1 if codec.kind == "bool" else 8  # little-endian: the first byte is it
+        # the same push, compiled, for the port's write to call (not on a simulated
+        # clock, which waits for room rather than drop)
+        compiled = None if wait else ring.word_tap(state, codec.kind)
+        if compiled is not None:
+            self.call = compiled
 
     def __call__(self, value: Any) -> None:
         if self._wait:
@@ -179,6 +187,8 @@ class _WordRecordTap(RecordTap):
         )
 
     def release(self) -> None:
+        if self.call is not self:
+            self.call.release()  # type: ignore[attr-defined]
         if self._values is not self._words:
             self._values.release()
         super().release()
@@ -236,11 +246,11 @@ class WorkerRecording:
             if t.direction == "output":
                 for port in writers[t.topic]:
                     self._restore.append((port, port.__class__, port._tap))
-                    port._tap = tap if port._tap is None else _Both(port._tap, tap)
+                    port._tap = tap.call if port._tap is None else _Both(port._tap, tap.call)
                     port.__class__ = _TappedOutputPort
             else:
                 feeder = fed[t.topic]
-                feeder.record = tap
+                feeder.record = tap.call
                 self._feeders.append(feeder)
 
     def counts(self) -> dict[str, dict[str, int]]:
