@@ -1,4 +1,5 @@
-/* The loop's hot path, compiled (rtcf._core._compiled; docs/performance.md#hot-path).
+/* The loop's hot path, compiled: rtcf._core._compiled
+ * (docs/performance.md#the-hot-path-in-c).
  *
  * What runs once per component per iteration, written against CPython's C API:
  *

@@ -3,7 +3,7 @@
 The compiled module is built when rtcf is installed with a C compiler at hand. Where
 it is missing, the loop runs the Python one (``_interpreted.py``) and says so once;
 ``RTCF_PURE_PYTHON=1`` asks for the Python one. Both give the same values; the
-compiled one costs a fraction per component (docs/performance.md#hot-path).
+compiled one costs a fraction per component (docs/performance.md#the-hot-path-in-c).
 """
 
 from __future__ import annotations
