@@ -167,6 +167,35 @@ class Sine(rtcf.Component):
         self.out.write(self.offset + self.amplitude * math.sin(self.omega * self.time))
 
 
+class Ramp(rtcf.Component):
+    """A signal source that grows by ``~step`` (default 1.0) every update, on ``out``."""
+
+    def configure(self) -> None:
+        self.out = self.add_output("out", float)
+        self.step = float(self.params.get("~step", 1.0))
+        self.value = 0.0
+
+    def update(self) -> None:
+        self.value += self.step
+        self.out.write(self.value)
+
+
+class Gain(rtcf.Component):
+    """``out_port = in_port * ~gain`` (default 1.0001); no value yet counts as 0.
+
+    With Ramp, the trivial chain of ``benchmarks/hot_path.py``: one read, one multiply,
+    one write per update.
+    """
+
+    def configure(self) -> None:
+        self.port_in = self.add_input("in_port", float)
+        self.port_out = self.add_output("out_port", float)
+        self.gain = float(self.params.get("~gain", 1.0001))
+
+    def update(self) -> None:
+        self.port_out.write((self.port_in.read() or 0.0) * self.gain)
+
+
 class FirstOrderPlant(rtcf.Component):
     """A simulated first-order system ``tau dy/dt = gain u - y`` (explicit Euler).
 

@@ -29,28 +29,14 @@ COLUMNS = (0, 1, 2, 3, 5)  # iteration, scheduled, jitter, calc, phase (4: overr
 F = 6  # the first component's column
 
 
-class Port:
-    """A port class over a module's PortCore, as rtcf._core._ports builds its own."""
-
-    @staticmethod
-    def of(m: ModuleType) -> tuple[type, type]:
-        class Out(m.PortCore):  # type: ignore[name-defined,misc]
-            __slots__ = ()
-            write = m.PortCore._write
-
-        class Tapped(m.PortCore):  # type: ignore[name-defined,misc]
-            __slots__ = ()
-            write = m.PortCore._write_tapped
-
-        class In(m.PortCore):  # type: ignore[name-defined,misc]
-            __slots__ = ()
-            read = m.PortCore._read
-            status = m.PortCore._status
-            has_new_data = m.PortCore._has_new_data
-            iteration = m.PortCore._iteration
-
-        m.set_flow_status(FlowStatus.NO_DATA, FlowStatus.OLD_DATA, FlowStatus.NEW_DATA)
-        return Out, In, Tapped  # type: ignore[return-value]
+def _ports(m: ModuleType) -> tuple[Any, Any]:
+    """An output and an input of the module, wired to one slot."""
+    m.set_flow_status(FlowStatus.NO_DATA, FlowStatus.OLD_DATA, FlowStatus.NEW_DATA)
+    st = m.LoopState(100.0)
+    out = m.OutputPort("/c", "out", float, st)
+    inp = m.InputPort("/d", "in", float)
+    inp._connect(out)
+    return out, inp
 
 
 def test_the_path_rtcf_runs_is_one_of_them_and_says_which() -> None:
@@ -80,11 +66,9 @@ def test_loop_state(m: ModuleType) -> None:
 
 @pytest.mark.parametrize("m", MODULES)
 def test_write_read_status_and_iteration(m: ModuleType) -> None:
-    Out, In, _ = Port.of(m)
-    st = m.LoopState(100.0)
-    out, inp = Out(), In()
-    out._state = st
-    inp._slot = out._slot  # connected
+    out, inp = _ports(m)
+    st = out._state
+    assert inp._slot is out._slot and inp.connected and inp.producer is out
     assert inp.status is FlowStatus.NO_DATA and not inp.has_new_data and inp.iteration == -1
     assert inp.read() is None and inp.status is FlowStatus.NO_DATA
     st.iteration = 4
@@ -99,9 +83,36 @@ def test_write_read_status_and_iteration(m: ModuleType) -> None:
 
 
 @pytest.mark.parametrize("m", MODULES)
+def test_names_repr_and_direction(m: ModuleType) -> None:
+    out, inp = _ports(m)
+    assert (out.component, out.name, out.type, out.topic) == ("/c", "out", float, "")
+    assert out.qualified_name == "/c.out" and inp.qualified_name == "/d.in"
+    assert (out.direction, inp.direction) == ("output", "input")
+    assert repr(out) == "<OutputPort /c.out -> ? [float]>"
+    inp.topic = "/x"
+    assert repr(inp) == "<InputPort /d.in <- /x [float]>"
+    assert isinstance(out, m.Port) and isinstance(inp, m.Port)
+    assert not hasattr(inp, "write") and not hasattr(out, "read")
+    assert m.OutputPort[float] is not None  # generic, as typing sees it
+
+
+@pytest.mark.parametrize("m", MODULES)
+def test_connect_shares_a_slot_or_keeps_or_gets_its_own(m: ModuleType) -> None:
+    out, inp = _ports(m)
+    out.write(1.0)
+    inp.read()
+    fed = inp._slot
+    inp._connect(None)  # disconnected: a fresh slot, nothing seen
+    assert inp._slot is not fed and inp._seen == 0 and not inp.connected
+    mine = inp._slot
+    mine.value, mine.seq = 5.0, 1  # a bridge fed it
+    inp._connect(None)  # stays unconnected: keeps what it was fed
+    assert inp._slot is mine and inp.read() == 5.0
+
+
+@pytest.mark.parametrize("m", MODULES)
 def test_a_port_outside_a_loop_records_iteration_minus_one(m: ModuleType) -> None:
-    Out, _, _ = Port.of(m)
-    out = Out()
+    out = m.OutputPort("/c", "out", float)
     assert out._state is None and out._tap is None
     out.write(1.0)
     assert out._slot.iteration == -1 and out._slot.seq == 1
@@ -117,12 +128,10 @@ def test_a_port_outside_a_loop_records_iteration_minus_one(m: ModuleType) -> Non
 
 @pytest.mark.parametrize("m", MODULES)
 def test_a_tapped_write_hands_the_value_to_the_tap_after_the_slot(m: ModuleType) -> None:
-    Out, _, Tapped = Port.of(m)
-    out = Out()
+    out = m.OutputPort("/c", "out", float)
     seen: list[tuple[Any, int]] = []
-    out._tap = lambda v: seen.append((v, out._slot.seq))
-    out.write(1.0)  # the plain class does not call it
-    out.__class__ = Tapped  # as a mapped or recorded port's class is swapped
+    out.write(1.0)
+    out._tap = lambda v: seen.append((v, out._slot.seq))  # mapped or recorded
     out.write(2.0)
     assert seen == [(2.0, 2)]
     out._tap = None
@@ -134,13 +143,14 @@ def test_a_tapped_write_hands_the_value_to_the_tap_after_the_slot(m: ModuleType)
     assert out._slot.value == 4.0  # the slot has it: the tap failed after
 
 
-def test_the_compiled_port_refuses_what_is_not_its_slot_or_state() -> None:
-    Out, _, _ = Port.of(_compiled)
-    out = Out()
+def test_the_compiled_port_refuses_what_is_not_its_slot_state_or_producer() -> None:
+    out = _compiled.OutputPort("/c", "out", float)
     with pytest.raises(TypeError, match="_slot must be a Slot"):
         out._slot = object()
     with pytest.raises(TypeError, match="_state must be a LoopState or None"):
         out._state = object()
+    with pytest.raises(TypeError, match="producer must be an OutputPort"):
+        _compiled.InputPort("/d", "in", float)._connect(object())
 
 
 class _Executor:
@@ -267,11 +277,8 @@ def test_a_ring_gate_calls_only_when_the_counters_differ(m: ModuleType) -> None:
 
 @pytest.mark.parametrize("m", MODULES)
 def test_no_reference_is_leaked_by_a_million_writes_and_reads(m: ModuleType) -> None:
-    Out, In, Tapped = Port.of(m)
-    st = m.LoopState()
-    out, inp = Out(), In()
-    out._state = st
-    inp._slot = out._slot
+    out, inp = _ports(m)
+    st = out._state
     value = object()
     tap = object.__new__(type("Sink", (), {"__call__": lambda self, v: None}))
     before = sys.getrefcount(value), sys.getrefcount(st), sys.getrefcount(tap)
@@ -279,7 +286,6 @@ def test_no_reference_is_leaked_by_a_million_writes_and_reads(m: ModuleType) -> 
     for _ in range(1_000_000):
         write(value)
         read()
-    out.__class__ = Tapped
     out._tap = tap
     for _ in range(1000):
         out.write(value)

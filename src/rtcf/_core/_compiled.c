@@ -5,9 +5,9 @@
  *
  *   Slot          a topic's latest value, how many writes, and the iteration of the last
  *   LoopState     what the loop tells components (iteration, time, stamp, rate)
- *   PortCore      the base of rtcf's ports: a slot, the loop's state, what a reader
- *                 last saw, a tap; ``_write``/``_read``/``_status``/... are what
- *                 rtcf._core._ports publishes as ``write``/``read``/``status``/...
+ *   Port, OutputPort, InputPort
+ *                 rtcf's ports (rtcf._core._ports re-exports them): a slot, the loop's
+ *                 state, what a reader last saw, an output's tap; write, read, status
  *   Calculation   the timed part of one iteration: wake-up time, the loop state, the
  *                 feeders, each component's update called by vectorcall with its time
  *                 from CLOCK_MONOTONIC stored into the timing row, the running word
@@ -187,24 +187,38 @@ static PyTypeObject LoopStateType = {
     .tp_members = LoopState_members,
 };
 
-/* ---- PortCore --------------------------------------------------------------------- */
+/* ---- Port, OutputPort, InputPort -------------------------------------------------- */
 
+/* rtcf's ports themselves (rtcf._core._ports re-exports them): C types, not Python
+ * subclasses of one, because CPython's fast path for a call of a C method checks that
+ * the instance's type is exactly the method's (a subclass takes the slow path). */
 typedef struct {
     PyObject_HEAD
     SlotObject *slot;       /* never NULL */
     LoopStateObject *state; /* NULL: a port outside a loop (writes record iteration -1) */
-    PyObject *tap;          /* NULL: none; else called with every written value */
-    long long seen;         /* the slot's seq at this port's last read */
-} PortCoreObject;
+    PyObject *tap;          /* an output's: NULL, or called with every written value */
+    long long seen;         /* an input's: the slot's seq at its last read */
+    PyObject *component;    /* full name of the owning component */
+    PyObject *name;         /* the name given in add_input/add_output */
+    PyObject *type;         /* the value type */
+    PyObject *topic;        /* resolved topic name, set when the runner wires the graph */
+    PyObject *producer;     /* an input's: the OutputPort writing its topic, or NULL */
+} PortObject;
+
+static PyTypeObject PortType, OutputPortType, InputPortType;
 
 static PyObject *
-PortCore_new(PyTypeObject *type, PyObject *args, PyObject *kwds)
+Port_new(PyTypeObject *type, PyObject *args, PyObject *kwds)
 {
-    PortCoreObject *p = (PortCoreObject *)type->tp_alloc(type, 0);
+    PortObject *p = (PortObject *)type->tp_alloc(type, 0);
     if (p == NULL)
         return NULL;
     p->slot = (SlotObject *)PyObject_CallNoArgs((PyObject *)&SlotType);
-    if (p->slot == NULL) {
+    p->component = PyUnicode_FromString("");
+    p->name = PyUnicode_FromString("");
+    p->topic = PyUnicode_FromString("");
+    p->type = Py_NewRef((PyObject *)&PyBaseObject_Type);
+    if (p->slot == NULL || p->component == NULL || p->name == NULL || p->topic == NULL) {
         Py_DECREF(p);
         return NULL;
     }
@@ -212,56 +226,75 @@ PortCore_new(PyTypeObject *type, PyObject *args, PyObject *kwds)
 }
 
 static int
-PortCore_traverse(PortCoreObject *p, visitproc visit, void *arg)
+Port_init(PortObject *p, PyObject *args, PyObject *kwds)
 {
-    Py_VISIT(p->slot);
-    Py_VISIT(p->state);
-    Py_VISIT(p->tap);
+    static char *kwlist[] = {"component", "name", "type_", "state", NULL};
+    static char *kwlist3[] = {"component", "name", "type_", NULL};
+    PyObject *component, *name, *type, *state = Py_None;
+    const char *format = PyObject_TypeCheck((PyObject *)p, &OutputPortType) ? "UUO|O:OutputPort"
+                         : PyObject_TypeCheck((PyObject *)p, &InputPortType) ? "UUO:InputPort"
+                                                                             : "UUO:Port";
+    int output = format[3] == '|';
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, format, output ? kwlist : kwlist3, &component,
+                                     &name, &type, &state))
+        return -1;
+    if (state != Py_None && !PyObject_TypeCheck(state, &LoopStateType)) {
+        PyErr_SetString(PyExc_TypeError, "a port's state must be a LoopState or None");
+        return -1;
+    }
+    Py_XSETREF(p->component, Py_NewRef(component));
+    Py_XSETREF(p->name, Py_NewRef(name));
+    Py_XSETREF(p->type, Py_NewRef(type));
+    Py_CLEAR(p->state);
+    if (state != Py_None)
+        p->state = (LoopStateObject *)Py_NewRef(state);
     return 0;
 }
 
 static int
-PortCore_clear(PortCoreObject *p)
+Port_traverse(PortObject *p, visitproc visit, void *arg)
+{
+    Py_VISIT(p->slot);
+    Py_VISIT(p->state);
+    Py_VISIT(p->tap);
+    Py_VISIT(p->component);
+    Py_VISIT(p->name);
+    Py_VISIT(p->type);
+    Py_VISIT(p->topic);
+    Py_VISIT(p->producer);
+    return 0;
+}
+
+static int
+Port_clear(PortObject *p)
 {
     Py_CLEAR(p->slot);
     Py_CLEAR(p->state);
     Py_CLEAR(p->tap);
+    Py_CLEAR(p->component);
+    Py_CLEAR(p->name);
+    Py_CLEAR(p->type);
+    Py_CLEAR(p->topic);
+    Py_CLEAR(p->producer);
     return 0;
 }
 
 static void
-PortCore_dealloc(PortCoreObject *p)
+Port_dealloc(PortObject *p)
 {
     PyObject_GC_UnTrack(p);
-    PortCore_clear(p);
+    Port_clear(p);
     Py_TYPE(p)->tp_free((PyObject *)p);
 }
 
-static inline void
-port_store(PortCoreObject *p, PyObject *value)
+static PyObject *
+OutputPort_write(PortObject *p, PyObject *value)
 {
     SlotObject *s = p->slot;
     Py_SETREF(s->value, Py_NewRef(value));
     s->seq++;
     s->iteration = p->state != NULL ? p->state->iteration : -1;
-}
-
-static PyObject *
-PortCore_write(PortCoreObject *p, PyObject *value)
-{
-    if (p->slot == NULL)
-        return PyErr_Format(PyExc_RuntimeError, "port has no slot");
-    port_store(p, value);
-    Py_RETURN_NONE;
-}
-
-static PyObject *
-PortCore_write_tapped(PortCoreObject *p, PyObject *value)
-{
-    if (p->slot == NULL)
-        return PyErr_Format(PyExc_RuntimeError, "port has no slot");
-    port_store(p, value);
-    if (p->tap == NULL)
+    if (p->tap == NULL) /* mapped to the middleware or recorded: the tap too, after */
         Py_RETURN_NONE;
     PyObject *arg[1] = {value};
     PyObject *res = PyObject_Vectorcall(p->tap, arg, 1, NULL);
@@ -272,17 +305,15 @@ PortCore_write_tapped(PortCoreObject *p, PyObject *value)
 }
 
 static PyObject *
-PortCore_read(PortCoreObject *p, PyObject *Py_UNUSED(ignored))
+InputPort_read(PortObject *p, PyObject *Py_UNUSED(ignored))
 {
     SlotObject *s = p->slot;
-    if (s == NULL)
-        return PyErr_Format(PyExc_RuntimeError, "port has no slot");
     p->seen = s->seq;
     return Py_NewRef(s->value != NULL ? s->value : Py_None);
 }
 
 static PyObject *
-PortCore_status(PortCoreObject *p, void *closure)
+InputPort_status(PortObject *p, void *closure)
 {
     long long seq = p->slot->seq;
     int k = seq == 0 ? 0 : (seq != p->seen ? 2 : 1);
@@ -292,25 +323,68 @@ PortCore_status(PortCoreObject *p, void *closure)
 }
 
 static PyObject *
-PortCore_has_new_data(PortCoreObject *p, void *closure)
+InputPort_has_new_data(PortObject *p, void *closure)
 {
     return PyBool_FromLong(p->slot->seq != p->seen);
 }
 
 static PyObject *
-PortCore_iteration(PortCoreObject *p, void *closure)
+InputPort_iteration(PortObject *p, void *closure)
 {
     return PyLong_FromLongLong(p->slot->iteration);
 }
 
 static PyObject *
-PortCore_get_slot(PortCoreObject *p, void *closure)
+InputPort_connected(PortObject *p, void *closure)
+{
+    return PyBool_FromLong(p->producer != NULL);
+}
+
+/* _connect(producer): share producer's slot, or get a fresh private one (no producer;
+ * one that stays unconnected keeps what a bridge may have fed it) */
+static PyObject *
+InputPort_connect(PortObject *p, PyObject *producer)
+{
+    if (producer != Py_None && !PyObject_TypeCheck(producer, &OutputPortType)) {
+        PyErr_SetString(PyExc_TypeError, "an input's producer must be an OutputPort or None");
+        return NULL;
+    }
+    SlotObject *slot;
+    if (producer != Py_None)
+        slot = (SlotObject *)Py_NewRef(((PortObject *)producer)->slot);
+    else if (p->producer == NULL)
+        slot = (SlotObject *)Py_NewRef(p->slot);
+    else {
+        slot = (SlotObject *)PyObject_CallNoArgs((PyObject *)&SlotType);
+        if (slot == NULL)
+            return NULL;
+    }
+    if (slot != p->slot) {
+        Py_SETREF(p->slot, slot);
+        p->seen = 0;
+    } else {
+        Py_DECREF(slot);
+    }
+    Py_CLEAR(p->producer);
+    if (producer != Py_None)
+        p->producer = Py_NewRef(producer);
+    Py_RETURN_NONE;
+}
+
+static PyObject *
+Port_qualified_name(PortObject *p, void *closure)
+{
+    return PyUnicode_FromFormat("%S.%S", p->component, p->name);
+}
+
+static PyObject *
+Port_get_slot(PortObject *p, void *closure)
 {
     return Py_NewRef((PyObject *)p->slot);
 }
 
 static int
-PortCore_set_slot(PortCoreObject *p, PyObject *value, void *closure)
+Port_set_slot(PortObject *p, PyObject *value, void *closure)
 {
     if (value == NULL || !PyObject_TypeCheck(value, &SlotType)) {
         PyErr_SetString(PyExc_TypeError, "a port's _slot must be a Slot");
@@ -321,13 +395,13 @@ PortCore_set_slot(PortCoreObject *p, PyObject *value, void *closure)
 }
 
 static PyObject *
-PortCore_get_state(PortCoreObject *p, void *closure)
+Port_get_state(PortObject *p, void *closure)
 {
     return Py_NewRef(p->state != NULL ? (PyObject *)p->state : Py_None);
 }
 
 static int
-PortCore_set_state(PortCoreObject *p, PyObject *value, void *closure)
+Port_set_state(PortObject *p, PyObject *value, void *closure)
 {
     if (value == NULL || value == Py_None) {
         Py_CLEAR(p->state);
@@ -342,13 +416,13 @@ PortCore_set_state(PortCoreObject *p, PyObject *value, void *closure)
 }
 
 static PyObject *
-PortCore_get_tap(PortCoreObject *p, void *closure)
+Port_get_tap(PortObject *p, void *closure)
 {
     return Py_NewRef(p->tap != NULL ? p->tap : Py_None);
 }
 
 static int
-PortCore_set_tap(PortCoreObject *p, PyObject *value, void *closure)
+Port_set_tap(PortObject *p, PyObject *value, void *closure)
 {
     if (value == NULL || value == Py_None) {
         Py_CLEAR(p->tap);
@@ -358,48 +432,151 @@ PortCore_set_tap(PortCoreObject *p, PyObject *value, void *closure)
     return 0;
 }
 
-static PyMethodDef PortCore_methods[] = {
-    {"_write", (PyCFunction)PortCore_write, METH_O,
-     "write(value)\n--\n\nMake value the topic's latest value."},
-    {"_write_tapped", (PyCFunction)PortCore_write_tapped, METH_O,
-     "write(value)\n--\n\nMake value the topic's latest value, and hand it to the tap."},
-    {"_read", (PyCFunction)PortCore_read, METH_NOARGS,
-     "read()\n--\n\nReturn the latest value (None before the first write) and mark it as seen."},
+static PyObject *
+Port_get_producer(PortObject *p, void *closure)
+{
+    return Py_NewRef(p->producer != NULL ? p->producer : Py_None);
+}
+
+static int
+Port_set_producer(PortObject *p, PyObject *value, void *closure)
+{
+    if (value == NULL || value == Py_None) {
+        Py_CLEAR(p->producer);
+        return 0;
+    }
+    Py_XSETREF(p->producer, Py_NewRef(value));
+    return 0;
+}
+
+static PyObject *
+port_repr(PortObject *p, const char *kind, const char *arrow)
+{
+    PyObject *tname = PyObject_GetAttrString(p->type, "__name__");
+    if (tname == NULL) {
+        PyErr_Clear();
+        tname = PyObject_Repr(p->type);
+        if (tname == NULL)
+            return NULL;
+    }
+    PyObject *r =
+        PyUnicode_GET_LENGTH(p->topic)
+            ? PyUnicode_FromFormat("<%s %S.%S %s %S [%S]>", kind, p->component, p->name, arrow,
+                                   p->topic, tname)
+            : PyUnicode_FromFormat("<%s %S.%S %s ? [%S]>", kind, p->component, p->name, arrow,
+                                   tname);
+    Py_DECREF(tname);
+    return r;
+}
+
+static PyObject *
+OutputPort_repr(PortObject *p)
+{
+    return port_repr(p, "OutputPort", "->");
+}
+
+static PyObject *
+InputPort_repr(PortObject *p)
+{
+    return port_repr(p, "InputPort", "<-");
+}
+
+static PyMethodDef Port_methods[] = {
+    {"__class_getitem__", Py_GenericAlias, METH_O | METH_CLASS, "OutputPort[float] etc."},
     {NULL},
 };
 
-static PyGetSetDef PortCore_getset[] = {
-    {"_slot", (getter)PortCore_get_slot, (setter)PortCore_set_slot, NULL, NULL},
-    {"_state", (getter)PortCore_get_state, (setter)PortCore_set_state, NULL, NULL},
-    {"_tap", (getter)PortCore_get_tap, (setter)PortCore_set_tap, NULL, NULL},
-    {"_status", (getter)PortCore_status, NULL,
-     "NEW_DATA if written since this port's last read, OLD_DATA if not, or NO_DATA.", NULL},
-    {"_has_new_data", (getter)PortCore_has_new_data, NULL,
-     "True if the value was written since this port's last read().", NULL},
-    {"_iteration", (getter)PortCore_iteration, NULL,
-     "The loop iteration in which the value on this topic was written (-1 before the first "
-     "write, and for values fed from the middleware).", NULL},
+static PyGetSetDef Port_getset[] = {
+    {"_slot", (getter)Port_get_slot, (setter)Port_set_slot, NULL, NULL},
+    {"_state", (getter)Port_get_state, (setter)Port_set_state, NULL, NULL},
+    {"_tap", (getter)Port_get_tap, (setter)Port_set_tap, NULL, NULL},
+    {"qualified_name", (getter)Port_qualified_name, NULL, "component.name", NULL},
     {NULL},
 };
 
-static PyMemberDef PortCore_members[] = {
-    {"_seen", T_LONGLONG, offsetof(PortCoreObject, seen), 0, NULL},
+static PyMemberDef Port_members[] = {
+    {"component", T_OBJECT_EX, offsetof(PortObject, component), 0,
+     "Full name of the owning component."},
+    {"name", T_OBJECT_EX, offsetof(PortObject, name), 0, "The name given in add_input/add_output."},
+    {"type", T_OBJECT_EX, offsetof(PortObject, type), 0, "The value type."},
+    {"topic", T_OBJECT_EX, offsetof(PortObject, topic), 0,
+     "The resolved topic name (set when the runner wires the graph)."},
+    {"_seen", T_LONGLONG, offsetof(PortObject, seen), 0, NULL},
     {NULL},
 };
 
-static PyTypeObject PortCoreType = {
+static PyTypeObject PortType = {
     PyVarObject_HEAD_INIT(NULL, 0)
-    .tp_name = "rtcf._core._compiled.PortCore",
-    .tp_doc = "The base of rtcf's ports: a slot, the loop's state, a reader's last seq.",
-    .tp_basicsize = sizeof(PortCoreObject),
+    .tp_name = "rtcf.Port",
+    .tp_doc = "Common part of inputs and outputs.",
+    .tp_basicsize = sizeof(PortObject),
     .tp_flags = Py_TPFLAGS_DEFAULT | Py_TPFLAGS_BASETYPE | Py_TPFLAGS_HAVE_GC,
-    .tp_new = PortCore_new,
-    .tp_dealloc = (destructor)PortCore_dealloc,
-    .tp_traverse = (traverseproc)PortCore_traverse,
-    .tp_clear = (inquiry)PortCore_clear,
-    .tp_methods = PortCore_methods,
-    .tp_getset = PortCore_getset,
-    .tp_members = PortCore_members,
+    .tp_new = Port_new,
+    .tp_init = (initproc)Port_init,
+    .tp_dealloc = (destructor)Port_dealloc,
+    .tp_traverse = (traverseproc)Port_traverse,
+    .tp_clear = (inquiry)Port_clear,
+    .tp_methods = Port_methods,
+    .tp_getset = Port_getset,
+    .tp_members = Port_members,
+};
+
+static PyMethodDef OutputPort_methods[] = {
+    {"write", (PyCFunction)OutputPort_write, METH_O,
+     "write(value)\n--\n\nMake value the topic's latest value."},
+    {NULL},
+};
+
+static PyTypeObject OutputPortType = {
+    PyVarObject_HEAD_INIT(NULL, 0)
+    .tp_name = "rtcf.OutputPort",
+    .tp_doc = "An output port: ``write(value)`` makes ``value`` the topic's latest value.",
+    .tp_basicsize = sizeof(PortObject),
+    .tp_flags = Py_TPFLAGS_DEFAULT | Py_TPFLAGS_BASETYPE | Py_TPFLAGS_HAVE_GC,
+    .tp_base = &PortType,
+    .tp_repr = (reprfunc)OutputPort_repr,
+    .tp_traverse = (traverseproc)Port_traverse,
+    .tp_clear = (inquiry)Port_clear,
+    .tp_methods = OutputPort_methods,
+};
+
+static PyMethodDef InputPort_methods[] = {
+    {"read", (PyCFunction)InputPort_read, METH_NOARGS,
+     "read()\n--\n\nReturn the latest value (None before the first write) and mark it as "
+     "seen."},
+    {"_connect", (PyCFunction)InputPort_connect, METH_O,
+     "_connect(producer)\n--\n\nShare producer's slot, or get a fresh private one (None)."},
+    {NULL},
+};
+
+static PyGetSetDef InputPort_getset[] = {
+    {"status", (getter)InputPort_status, NULL,
+     "NEW_DATA if written since this port's last read, OLD_DATA if not, or NO_DATA.", NULL},
+    {"has_new_data", (getter)InputPort_has_new_data, NULL,
+     "True if the value was written since this port's last read().", NULL},
+    {"iteration", (getter)InputPort_iteration, NULL,
+     "The loop iteration in which the value on this topic was written: with components at "
+     "several rates, which iteration's value a reader sees (-1 before the first write, and "
+     "for values fed from the middleware).", NULL},
+    {"connected", (getter)InputPort_connected, NULL,
+     "True if a producer inside the runner writes this input's topic.", NULL},
+    {"producer", (getter)Port_get_producer, (setter)Port_set_producer,
+     "The OutputPort writing this input's topic inside the runner, or None.", NULL},
+    {NULL},
+};
+
+static PyTypeObject InputPortType = {
+    PyVarObject_HEAD_INIT(NULL, 0)
+    .tp_name = "rtcf.InputPort",
+    .tp_doc = "An input port: ``read()`` returns the latest value on its topic, or None.",
+    .tp_basicsize = sizeof(PortObject),
+    .tp_flags = Py_TPFLAGS_DEFAULT | Py_TPFLAGS_BASETYPE | Py_TPFLAGS_HAVE_GC,
+    .tp_base = &PortType,
+    .tp_repr = (reprfunc)InputPort_repr,
+    .tp_traverse = (traverseproc)Port_traverse,
+    .tp_clear = (inquiry)Port_clear,
+    .tp_methods = InputPort_methods,
+    .tp_getset = InputPort_getset,
 };
 
 /* ---- Calculation ------------------------------------------------------------------ */
@@ -1206,19 +1383,32 @@ PyMODINIT_FUNC
 PyInit__compiled(void)
 {
     if (PyType_Ready(&SlotType) < 0 || PyType_Ready(&LoopStateType) < 0 ||
-        PyType_Ready(&PortCoreType) < 0 || PyType_Ready(&CalculationType) < 0 ||
+        PyType_Ready(&PortType) < 0 || PyType_Ready(&OutputPortType) < 0 ||
+        PyType_Ready(&InputPortType) < 0 || PyType_Ready(&CalculationType) < 0 ||
         PyType_Ready(&RingGateType) < 0 || PyType_Ready(&HeartbeatType) < 0 ||
         PyType_Ready(&WordTapType) < 0)
         return NULL;
     str_plans = PyUnicode_InternFromString("plans");
     if (str_plans == NULL)
         return NULL;
+    /* direction: a class attribute of each port type */
+    PyObject *out = PyUnicode_InternFromString("output"), *in = PyUnicode_InternFromString("input");
+    if (out == NULL || in == NULL ||
+        PyDict_SetItemString(OutputPortType.tp_dict, "direction", out) < 0 ||
+        PyDict_SetItemString(InputPortType.tp_dict, "direction", in) < 0)
+        return NULL;
+    Py_DECREF(out);
+    Py_DECREF(in);
+    PyType_Modified(&OutputPortType);
+    PyType_Modified(&InputPortType);
     PyObject *m = PyModule_Create(&module);
     if (m == NULL)
         return NULL;
     if (PyModule_AddObjectRef(m, "Slot", (PyObject *)&SlotType) < 0 ||
         PyModule_AddObjectRef(m, "LoopState", (PyObject *)&LoopStateType) < 0 ||
-        PyModule_AddObjectRef(m, "PortCore", (PyObject *)&PortCoreType) < 0 ||
+        PyModule_AddObjectRef(m, "Port", (PyObject *)&PortType) < 0 ||
+        PyModule_AddObjectRef(m, "OutputPort", (PyObject *)&OutputPortType) < 0 ||
+        PyModule_AddObjectRef(m, "InputPort", (PyObject *)&InputPortType) < 0 ||
         PyModule_AddObjectRef(m, "Calculation", (PyObject *)&CalculationType) < 0 ||
         PyModule_AddObjectRef(m, "RingGate", (PyObject *)&RingGateType) < 0 ||
         PyModule_AddObjectRef(m, "HeartbeatWatch", (PyObject *)&HeartbeatType) < 0 ||

@@ -35,8 +35,10 @@ if TYPE_CHECKING:  # the two have the same API: type-check against the Python on
     from ._interpreted import (
         Calculation,
         HeartbeatWatch,
+        InputPort,
         LoopState,
-        PortCore,
+        OutputPort,
+        Port,
         RingGate,
         Slot,
         WordTap,
@@ -45,7 +47,9 @@ if TYPE_CHECKING:  # the two have the same API: type-check against the Python on
 else:
     Slot = _module.Slot
     LoopState = _module.LoopState
-    PortCore = _module.PortCore
+    Port = _module.Port
+    OutputPort = _module.OutputPort
+    InputPort = _module.InputPort
     Calculation = _module.Calculation
     RingGate = _module.RingGate
     HeartbeatWatch = _module.HeartbeatWatch

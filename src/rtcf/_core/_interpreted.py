@@ -10,7 +10,9 @@ side by side.
 from __future__ import annotations
 
 from collections.abc import Callable, MutableSequence
-from typing import Any
+from typing import Any, Generic, TypeVar
+
+T = TypeVar("T")
 
 _flow_status: list[Any] = [0, 1, 2]
 
@@ -55,22 +57,25 @@ class _NoLoop:
 _NO_LOOP = _NoLoop()
 
 
-class PortCore:
-    """The base of rtcf's ports: a slot, the loop's state, what a reader last saw."""
+class Port(Generic[T]):
+    """Common part of inputs and outputs."""
 
-    __slots__ = ("__state", "_seen", "_slot", "_tap")
-    _slot: Slot
-    _seen: int
-    _tap: Callable[[Any], None] | None
+    __slots__ = ("__state", "_seen", "_slot", "_tap", "component", "name", "topic", "type")
 
-    def __new__(cls, *args: Any, **kwargs: Any) -> Any:
-        # as the compiled type's tp_new: every port has a slot before its __init__
-        self = super().__new__(cls)
+    def __init__(self, component: str, name: str, type_: type[T]) -> None:
+        self.component = component  # full name of the owning component
+        self.name = name  # name given in add_input/add_output
+        self.type = type_
+        self.topic = ""  # resolved topic name, set when the runner wires the graph
         self._slot = Slot()
-        self.__state = _NO_LOOP
-        self._seen = 0
-        self._tap = None
-        return self
+        self.__state: Any = _NO_LOOP
+        self._seen = 0  # an input's: the slot's seq at its last read
+        # an output's: called with every written value while it is mapped or recorded
+        self._tap: Callable[[Any], None] | None = None
+
+    @property
+    def qualified_name(self) -> str:
+        return f"{self.component}.{self.name}"
 
     @property
     def _state(self) -> LoopState | None:
@@ -81,31 +86,50 @@ class PortCore:
     def _state(self, state: LoopState | None) -> None:
         self.__state = _NO_LOOP if state is None else state
 
-    def _write(self, value: Any) -> None:
+
+class OutputPort(Port[T]):
+    """An output port: ``write(value)`` makes ``value`` the topic's latest value."""
+
+    __slots__ = ()
+    direction = "output"
+
+    def __init__(self, component: str, name: str, type_: type[T], state: Any = None) -> None:
+        super().__init__(component, name, type_)
+        # the loop's state: a write records its iteration (-1 for a port outside a loop)
+        self._state = state
+
+    def write(self, value: T) -> None:
         """Make value the topic's latest value."""
         slot = self._slot
         slot.value = value
         slot.seq += 1
-        slot.iteration = self.__state.iteration
-
-    def _write_tapped(self, value: Any) -> None:
-        """Make value the topic's latest value, and hand it to the tap."""
-        slot = self._slot
-        slot.value = value
-        slot.seq += 1
-        slot.iteration = self.__state.iteration
+        slot.iteration = self._Port__state.iteration  # type: ignore[attr-defined]
         tap = self._tap
-        if tap is not None:
+        if tap is not None:  # mapped to the middleware or recorded: the tap too, after
             tap(value)
 
-    def _read(self) -> Any:
+    def __repr__(self) -> str:
+        return f"<OutputPort {self.qualified_name} -> {self.topic or '?'} [{self.type.__name__}]>"
+
+
+class InputPort(Port[T]):
+    """An input port: ``read()`` returns the latest value on its topic, or None."""
+
+    __slots__ = ("producer",)
+    direction = "input"
+
+    def __init__(self, component: str, name: str, type_: type[T]) -> None:
+        super().__init__(component, name, type_)
+        self.producer: OutputPort[Any] | None = None
+
+    def read(self) -> T | None:
         """Return the latest value (None before the first write) and mark it as seen."""
         slot = self._slot
         self._seen = slot.seq
         return slot.value
 
     @property
-    def _status(self) -> Any:
+    def status(self) -> Any:
         """NEW_DATA if written since this port's last read, OLD_DATA if not, or NO_DATA."""
         seq = self._slot.seq
         if seq == 0:
@@ -113,15 +137,34 @@ class PortCore:
         return _flow_status[2] if seq != self._seen else _flow_status[1]
 
     @property
-    def _has_new_data(self) -> bool:
-        """True if the value was written since this port's last read()."""
+    def iteration(self) -> int:
+        """The loop iteration in which the value on this topic was written: with
+        components at several rates, which iteration's value a reader sees (-1 before
+        the first write, and for values fed from the middleware)."""
+        return int(self._slot.iteration)
+
+    @property
+    def has_new_data(self) -> bool:
+        """True if the value was written since this port's last ``read()``."""
         return bool(self._slot.seq != self._seen)
 
     @property
-    def _iteration(self) -> int:
-        """The loop iteration in which the value on this topic was written (-1 before
-        the first write, and for values fed from the middleware)."""
-        return int(self._slot.iteration)
+    def connected(self) -> bool:
+        """True if a producer inside the runner writes this input's topic."""
+        return self.producer is not None
+
+    def _connect(self, producer: OutputPort[Any] | None) -> None:
+        """Share ``producer``'s slot, or get a fresh private one (no producer)."""
+        slot = producer._slot if producer is not None else Slot()
+        if producer is None and self.producer is None:
+            slot = self._slot  # stays unconnected: keep what a bridge may have fed it
+        if slot is not self._slot:
+            self._slot = slot
+            self._seen = 0
+        self.producer = producer
+
+    def __repr__(self) -> str:
+        return f"<InputPort {self.qualified_name} <- {self.topic or '?'} [{self.type.__name__}]>"
 
 
 SKIPPED = -1  # a component's time column in an iteration it did not run in

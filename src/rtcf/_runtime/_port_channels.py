@@ -18,7 +18,6 @@ from dataclasses import dataclass
 from typing import Any
 
 from .._core._errors import ConfigurationError
-from .._core._hotpath import PortCore
 from .._core._message_types import type_name
 from .._core._ports import InputPort, OutputPort, Port, Slot
 from .._core._rings import Mailbox, Ring
@@ -98,14 +97,6 @@ def _codec(port: Port[Any]) -> Codec:
             "leave the topic out of the whitelist"
         )
     return codec
-
-
-class _TappedOutputPort(OutputPort[Any]):
-    """An output whose writes also go to the middleware (the class of a mapped port)."""
-
-    __slots__ = ()
-
-    write = PortCore._write_tapped  # the hot path's: the slot's write, then the tap
 
 
 class Tap:
@@ -207,9 +198,8 @@ class WorkerPorts:
                 writers = by_topic_out[mp.topic]
                 tap = Tap(Ring.open(view), _codec(writers[0]), self._pushed)
                 self.taps[mp.topic] = tap
-                for out in writers:
+                for out in writers:  # its write calls the tap, after the slot's store
                     out._tap = tap
-                    out.__class__ = _TappedOutputPort
                     self._tapped.append(out)
             else:
                 readers = by_topic_in[mp.topic]
@@ -234,7 +224,6 @@ class WorkerPorts:
 
     def release(self) -> None:
         for port in self._tapped:
-            port.__class__ = OutputPort
             port._tap = None
         for tap in self.taps.values():
             tap.release()

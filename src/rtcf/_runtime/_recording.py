@@ -27,7 +27,7 @@ from .._core._message_types import type_name
 from .._core._ports import InputPort, OutputPort
 from .._core._rings import Ring
 from ._codec import Codec, codec_for
-from ._port_channels import Feeder, _TappedOutputPort
+from ._port_channels import Feeder
 
 _HDR = 24  # payload length, iteration, stamp: three int64
 _BUDGET = 4 << 20  # bytes of ring per recorded topic at most
@@ -229,7 +229,7 @@ class WorkerRecording:
         wait: bool,
     ) -> None:
         self.taps: dict[str, RecordTap] = {}
-        self._restore: list[tuple[OutputPort[Any], type, Any]] = []
+        self._restore: list[tuple[OutputPort[Any], Any]] = []
         self._feeders: list[Feeder] = []
         writers: dict[str, list[OutputPort[Any]]] = {}
         for port in outputs:
@@ -245,9 +245,8 @@ class WorkerRecording:
             self.taps[t.topic] = tap
             if t.direction == "output":
                 for port in writers[t.topic]:
-                    self._restore.append((port, port.__class__, port._tap))
+                    self._restore.append((port, port._tap))
                     port._tap = tap.call if port._tap is None else _Both(port._tap, tap.call)
-                    port.__class__ = _TappedOutputPort
             else:
                 feeder = fed[t.topic]
                 feeder.record = tap.call
@@ -262,8 +261,7 @@ class WorkerRecording:
         }
 
     def release(self) -> None:
-        for port, cls, tap in reversed(self._restore):
-            port.__class__ = cls
+        for port, tap in reversed(self._restore):
             port._tap = tap
         for feeder in self._feeders:
             feeder.record = None
