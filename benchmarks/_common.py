@@ -351,8 +351,12 @@ def run_rtcf(
     wrapper: Sequence[str] = (),
     extra_args: Sequence[str] = (),
     timeout_s: float | None = None,
+    env: Mapping[str, str] | None = None,
 ) -> RtcfRun:
-    """Run ``rtcf launch LAUNCH --duration D --report DIR`` and read DIR/timing.json."""
+    """Run ``rtcf launch LAUNCH --duration D --report DIR`` and read DIR/timing.json.
+
+    ``env``: variables set for rtcf on top of this process's environment.
+    """
     cmd = [
         *wrapper,
         sys.executable,
@@ -371,7 +375,12 @@ def run_rtcf(
     steal0 = steal_ms()
     started = time.perf_counter()
     proc = subprocess.Popen(
-        cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, cwd=REPO
+        cmd,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        cwd=REPO,
+        env={**os.environ, **env} if env else None,
     )
     readers = [
         threading.Thread(target=_reader, args=(proc.stdout, out), daemon=True),

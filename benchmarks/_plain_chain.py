@@ -1,0 +1,138 @@
+"""The reference for hot_path.py: a chain of trivial components as plain Python objects.
+
+Run as its own process under the conditions rtcf's loop gets, as ``_plain_loop.py``
+does: SCHED_FIFO, one CPU, mlockall, the garbage collector frozen and off, absolute
+deadlines with ``clock_nanosleep(TIMER_ABSTIME)`` on CLOCK_MONOTONIC, and
+``time.monotonic_ns`` (the clock rtcf reads) around the work. Prints one JSON object
+with the samples' summary.
+
+The work is rtcf_examples' Ramp and Gains without ports: a PlainRamp (``value +=
+step``) and N-1 PlainGains (``value = src.value * gain``), each object's bound
+``update`` called in order. ``--timed`` also reads the clock after every update and
+stores the difference into a row, as rtcf's loop does per component: what per-component
+timing costs in plain Python.
+
+    python benchmarks/_plain_chain.py --frequency 500 --duration 10 --cpu 1 --priority 80
+"""
+
+from __future__ import annotations
+
+import argparse
+import ctypes
+import ctypes.util
+import gc
+import json
+import os
+import time
+from array import array
+from collections.abc import Callable
+
+from _plain_loop import CLOCK_MONOTONIC, MCL_CURRENT, MCL_FUTURE, TIMER_ABSTIME, Timespec, summarize
+
+
+class PlainRamp:
+    def __init__(self, step: float = 1.0) -> None:
+        self.step = step
+        self.value = 0.0
+
+    def update(self) -> None:
+        self.value += self.step
+
+
+class PlainGain:
+    def __init__(self, src: PlainRamp | PlainGain, gain: float = 1.0001) -> None:
+        self.src = src
+        self.gain = gain
+        self.value = 0.0
+
+    def update(self) -> None:
+        self.value = self.src.value * self.gain
+
+
+def main() -> None:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--frequency", type=float, default=500.0)
+    p.add_argument("--duration", type=float, default=10.0)
+    p.add_argument("--components", type=int, default=200)
+    p.add_argument("--cpu", type=int, default=None)
+    p.add_argument("--priority", type=int, default=80)
+    p.add_argument("--timed", action="store_true", help="time every update into a row")
+    args = p.parse_args()
+
+    libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6", use_errno=True)
+    realtime: dict[str, object] = {"scheduler": "SCHED_OTHER", "priority": None}
+    if args.cpu is not None:
+        os.sched_setaffinity(0, {args.cpu})
+    try:
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(args.priority))
+        realtime.update(scheduler="SCHED_FIFO", priority=args.priority)
+    except PermissionError:
+        pass
+    realtime["mlockall"] = libc.mlockall(MCL_CURRENT | MCL_FUTURE) == 0
+    realtime["cpu_affinity"] = sorted(os.sched_getaffinity(0))
+
+    nanosleep = libc.clock_nanosleep
+    nanosleep.argtypes = [ctypes.c_int, ctypes.c_int, ctypes.POINTER(Timespec), ctypes.c_void_p]
+    nanosleep.restype = ctypes.c_int
+    ts = Timespec()
+    ts_ptr = ctypes.pointer(ts)
+    now = time.monotonic_ns
+
+    chain: list[PlainRamp | PlainGain] = [PlainRamp()]
+    for _ in range(args.components - 1):
+        chain.append(PlainGain(chain[-1]))
+    updates: tuple[Callable[[], None], ...] = tuple(o.update for o in chain)
+    steps = tuple(enumerate(updates))
+    row: array[int] = array("q", bytes(8 * len(updates)))  # the timing row, reused
+
+    period = round(1e9 / args.frequency)
+    n = max(1, round(args.duration * args.frequency))
+    jitter: array[int] = array("q", bytes(8 * n))
+    calc: array[int] = array("q", bytes(8 * n))
+    overruns = 0
+    timed = args.timed  # a local: the branch costs a few ns per iteration, not per component
+
+    gc.collect()
+    gc.freeze()
+    gc.disable()
+    deadline = now()
+    for i in range(n):
+        ts.tv_sec, ts.tv_nsec = divmod(deadline, 1_000_000_000)
+        nanosleep(CLOCK_MONOTONIC, TIMER_ABSTIME, ts_ptr, None)
+        t0 = now()
+        if timed:
+            t = t0
+            for k, update in steps:
+                update()
+                t1 = now()
+                row[k] = t1 - t
+                t = t1
+        else:
+            for update in updates:
+                update()
+            t1 = now()
+        jitter[i] = t0 - deadline
+        calc[i] = t1 - t0
+        deadline += period
+        if t1 > deadline:
+            overruns += 1
+    gc.enable()
+    print(
+        json.dumps(
+            {
+                "frequency_hz": args.frequency,
+                "components": len(updates),
+                "timed": args.timed,
+                "iterations": n,
+                "overruns": overruns,
+                "realtime": realtime,
+                "jitter_us": summarize(jitter, n),
+                "calc_us": summarize(calc, n),
+                "result": chain[-1].value,
+            }
+        )
+    )
+
+
+if __name__ == "__main__":
+    main()
