@@ -66,3 +66,19 @@ def test_a_lane_waiting_for_another_stops_where_that_one_stopped() -> None:
     assert not other.is_alive(), "right still waits for an iteration main never runs"
     assert right.decision.cell[0] == CONTROL and right.stopped_here
     assert main.words[W_STOP_AT] == 5
+
+
+def test_a_stop_asked_before_a_run_begins_runs_no_iteration_in_any_lane() -> None:
+    main, right, main_stop, _, _ = _links()
+    main_stop.set(CONTROL)  # a request came while the lanes were getting ready
+    starts: dict[str, tuple[int, int, int]] = {}
+    other = threading.Thread(target=right.begin, args=(
+        1, 10_000, None, lambda *a: starts.__setitem__("right", a)))
+    other.start()
+    main.begin(1, 10_000, None, lambda *a: starts.__setitem__("main", a))
+    other.join(5)
+    assert not other.is_alive()
+    # both would start at iteration 0, but their loops end before it
+    assert starts["main"][0] == starts["right"][0] == 0
+    assert main.decision.cell[0] == CONTROL and right.decision.cell[0] == CONTROL
+    assert main.words[W_STOP_AT] == -1

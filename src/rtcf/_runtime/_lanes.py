@@ -273,6 +273,10 @@ class LaneLink:
             if iterations is not None:
                 words[W_REASON] = STOP
                 words[W_STOP_AT] = m + iterations - 1
+            reason = self.stop.cell[0] if self.stop is not None else 0
+            if reason:  # asked to stop before the run began (a request came meanwhile):
+                words[W_REASON] = max(words[W_REASON], reason)  # no lane runs an iteration
+                words[W_STOP_AT] = m - 1
             words[W_START_ITERATION] = m
             words[W_START_NS] = start
             words[W_ORIGIN_NS] = origin
@@ -293,6 +297,8 @@ class LaneLink:
         resume(first, start + (first - m) * self.period_ns, origin)
         words[base + L_LAST] = first - every
         words[base + L_TAKEN] = first - every
+        if words[W_STOP_AT] < first:  # the run ends before this lane's first iteration
+            self.decision.cell[0] = words[W_REASON] or STOP
 
     def _pause(self) -> None:
         stop = self.stop
