@@ -112,11 +112,6 @@ def main() -> int:
                 file=sys.stderr,
             )
             return 1
-        # the system's topics in the ROS graph (rtcf: only what it maps)
-        prefix = args.input.rsplit("/", 1)[0] + "/"
-        graph_topics = sorted(
-            name for name, _ in node.get_topic_names_and_types() if name.startswith(prefix)
-        )
         timer = node.create_timer(1.0 / args.rate, send)
         timers.append(timer)
         if not spin_until(lambda: bool(arrived), args.timeout):
@@ -137,6 +132,12 @@ def main() -> int:
         timer.cancel()
         spin_until(lambda: state["newest"] >= last, args.drain)
         outputs = state["outputs"] - outputs0
+        # the system's topics in the ROS graph (rtcf: only what it maps), once the run
+        # has given discovery time to see them all (at the start it may not have)
+        prefix = args.input.rsplit("/", 1)[0] + "/"
+        graph_topics = sorted(
+            name for name, _ in node.get_topic_names_and_types() if name.startswith(prefix)
+        )
     except (KeyboardInterrupt, ExternalShutdownException):
         return 130
     finally:
