@@ -727,3 +727,49 @@ def main_guard(fn: Any) -> None:
     except KeyboardInterrupt:
         print("interrupted", file=sys.stderr)
         sys.exit(130)
+
+
+class NoSleepClock:
+    """The system clock without the sleep: an executor runs iterations back to back
+    (the tight loops: the caches stay warm)."""
+
+    simulated = False
+
+    def __init__(self) -> None:
+        self.now_ns = time.monotonic_ns
+
+    def sleep_until_ns(self, deadline_ns: int) -> None:
+        pass
+
+
+def run_reference(script: str, frequency: float, duration: float, *extra: str) -> dict[str, Any]:
+    """A plain Python reference loop (``_plain_loop.py``, ``_plain_chain.py``) in its own
+    process, at the priority and on the CPU rtcf's loop gets; its JSON, with the command
+    and the steal time on that CPU during the run."""
+    cmd = [
+        sys.executable, str(REPO / "benchmarks" / script), "--frequency", str(frequency),
+        "--duration", f"{duration:g}", "--cpu", str(RT_CPU), "--priority", str(PRIORITY),
+        *extra,
+    ]
+    steal0 = steal_ms()
+    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
+    try:
+        out, err = proc.communicate(timeout=duration * 3 + 60)
+    finally:
+        stop_process(proc)
+    if proc.returncode != 0:
+        raise BenchmarkError(f"{script} failed (exit {proc.returncode}): {err.strip()}")
+    data: dict[str, Any] = json.loads(out)
+    data["command"] = " ".join(cmd)
+    data["steal_ms"] = steal_ms() - steal0
+    return data
+
+
+def best_ns_per_iteration(fn: Any, n: int, repeats: int) -> float:
+    """timeit's convention: the best of ``repeats`` runs is the least disturbed one."""
+    best = float("inf")
+    for _ in range(repeats):
+        t0 = time.perf_counter_ns()
+        fn(n)
+        best = min(best, (time.perf_counter_ns() - t0) / n)
+    return best

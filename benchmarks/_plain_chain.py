@@ -18,16 +18,13 @@ timing costs in plain Python.
 from __future__ import annotations
 
 import argparse
-import ctypes
-import ctypes.util
 import gc
 import json
-import os
 import time
 from array import array
 from collections.abc import Callable
 
-from _plain_loop import CLOCK_MONOTONIC, MCL_CURRENT, MCL_FUTURE, TIMER_ABSTIME, Timespec, summarize
+from _plain_loop import CLOCK_MONOTONIC, TIMER_ABSTIME, realtime_setup, summarize
 
 
 class PlainRamp:
@@ -59,23 +56,7 @@ def main() -> None:
     p.add_argument("--timed", action="store_true", help="time every update into a row")
     args = p.parse_args()
 
-    libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6", use_errno=True)
-    realtime: dict[str, object] = {"scheduler": "SCHED_OTHER", "priority": None}
-    if args.cpu is not None:
-        os.sched_setaffinity(0, {args.cpu})
-    try:
-        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(args.priority))
-        realtime.update(scheduler="SCHED_FIFO", priority=args.priority)
-    except PermissionError:
-        pass
-    realtime["mlockall"] = libc.mlockall(MCL_CURRENT | MCL_FUTURE) == 0
-    realtime["cpu_affinity"] = sorted(os.sched_getaffinity(0))
-
-    nanosleep = libc.clock_nanosleep
-    nanosleep.argtypes = [ctypes.c_int, ctypes.c_int, ctypes.POINTER(Timespec), ctypes.c_void_p]
-    nanosleep.restype = ctypes.c_int
-    ts = Timespec()
-    ts_ptr = ctypes.pointer(ts)
+    realtime, nanosleep, ts, ts_ptr = realtime_setup(args.cpu, args.priority)
     now = time.monotonic_ns
 
     chain: list[PlainRamp | PlainGain] = [PlainRamp()]

@@ -23,6 +23,7 @@ import math
 import os
 import time
 from array import array
+from typing import Any
 
 CLOCK_MONOTONIC = time.CLOCK_MONOTONIC
 TIMER_ABSTIME = 1
@@ -44,6 +45,29 @@ def summarize(values: array[int], n: int) -> dict[str, float]:
     return out
 
 
+def realtime_setup(cpu: int | None, priority: int) -> tuple[dict[str, object], Any, Timespec, Any]:
+    """The conditions rtcf's loop gets: pinned to ``cpu``, SCHED_FIFO ``priority``,
+    mlockall; and libc's clock_nanosleep with its timespec, which the caller's loop
+    calls inline (a wrapper would add a Python call to each wake-up). Returns what was
+    applied, clock_nanosleep, the timespec and a pointer to it."""
+    libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6", use_errno=True)
+    realtime: dict[str, object] = {"scheduler": "SCHED_OTHER", "priority": None}
+    if cpu is not None:
+        os.sched_setaffinity(0, {cpu})
+    try:
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(priority))
+        realtime.update(scheduler="SCHED_FIFO", priority=priority)
+    except PermissionError:
+        pass
+    realtime["mlockall"] = libc.mlockall(MCL_CURRENT | MCL_FUTURE) == 0
+    realtime["cpu_affinity"] = sorted(os.sched_getaffinity(0))
+    nanosleep = libc.clock_nanosleep
+    nanosleep.argtypes = [ctypes.c_int, ctypes.c_int, ctypes.POINTER(Timespec), ctypes.c_void_p]
+    nanosleep.restype = ctypes.c_int
+    ts = Timespec()
+    return realtime, nanosleep, ts, ctypes.pointer(ts)
+
+
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--frequency", type=float, default=2000.0)
@@ -52,23 +76,7 @@ def main() -> None:
     p.add_argument("--priority", type=int, default=80)
     args = p.parse_args()
 
-    libc = ctypes.CDLL(ctypes.util.find_library("c") or "libc.so.6", use_errno=True)
-    realtime: dict[str, object] = {"scheduler": "SCHED_OTHER", "priority": None}
-    if args.cpu is not None:
-        os.sched_setaffinity(0, {args.cpu})
-    try:
-        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(args.priority))
-        realtime.update(scheduler="SCHED_FIFO", priority=args.priority)
-    except PermissionError:
-        pass
-    realtime["mlockall"] = libc.mlockall(MCL_CURRENT | MCL_FUTURE) == 0
-    realtime["cpu_affinity"] = sorted(os.sched_getaffinity(0))
-
-    nanosleep = libc.clock_nanosleep
-    nanosleep.argtypes = [ctypes.c_int, ctypes.c_int, ctypes.POINTER(Timespec), ctypes.c_void_p]
-    nanosleep.restype = ctypes.c_int
-    ts = Timespec()
-    ts_ptr = ctypes.pointer(ts)
+    realtime, nanosleep, ts, ts_ptr = realtime_setup(args.cpu, args.priority)
     now = time.monotonic_ns
 
     period = round(1e9 / args.frequency)

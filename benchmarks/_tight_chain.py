@@ -18,28 +18,9 @@ import json
 import os
 import time
 from array import array
-from collections.abc import Callable
 
+from _common import NoSleepClock, best_ns_per_iteration
 from _plain_chain import PlainGain, PlainRamp
-
-
-class _NoSleepClock:
-    simulated = False
-
-    def __init__(self) -> None:
-        self.now_ns = time.monotonic_ns
-
-    def sleep_until_ns(self, deadline_ns: int) -> None:
-        pass
-
-
-def best_ns(fn: Callable[[int], object], n: int, repeats: int) -> float:
-    best = float("inf")
-    for _ in range(repeats):
-        t0 = time.perf_counter_ns()
-        fn(n)
-        best = min(best, (time.perf_counter_ns() - t0) / n)
-    return best
 
 
 def main() -> None:
@@ -82,7 +63,7 @@ def main() -> None:
                 row[k] = t1 - t
                 t = t1
 
-    runner = rtcf.Runner(rtcf.RunnerSettings(frequency=500.0), clock=_NoSleepClock(),
+    runner = rtcf.Runner(rtcf.RunnerSettings(frequency=500.0), clock=NoSleepClock(),
                          log_level="warning")
     runner.load(rtcf.ComponentSpec("c0", cls=Ramp, remaps={"out": "/t0"}))
     for k in range(1, n):
@@ -95,8 +76,8 @@ def main() -> None:
     iters = args.iterations
     out = {
         "hot_path": _hotpath.HOT_PATH,
-        "plain": best_ns(plain, iters, args.repeats) / n,
-        "plain_timed": best_ns(plain_timed, iters, args.repeats) / n,
+        "plain": best_ns_per_iteration(plain, iters, args.repeats) / n,
+        "plain_timed": best_ns_per_iteration(plain_timed, iters, args.repeats) / n,
         # the loop's own measure: the calculation's p50 (per-component timing included)
         "rtcf": min(
             runner.run(iters, drain_logs_every_iteration=False).timing.calc_us["p50"]

@@ -86,33 +86,8 @@ def run_rtcf(
 
 def run_plain(timed: bool, duration: float) -> dict[str, Any]:
     """The plain chain in its own process, same priority and CPU as rtcf's loop."""
-    cmd = [
-        sys.executable,
-        str(Path(__file__).with_name("_plain_chain.py")),
-        "--frequency",
-        str(FREQUENCY),
-        "--duration",
-        f"{duration:g}",
-        "--components",
-        str(COMPONENTS),
-        "--cpu",
-        str(c.RT_CPU),
-        "--priority",
-        str(c.PRIORITY),
-        *(["--timed"] if timed else []),
-    ]
-    steal0 = c.steal_ms()
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    try:
-        out, err = proc.communicate(timeout=duration * 3 + 60)
-    finally:
-        c.stop_process(proc)
-    if proc.returncode != 0:
-        raise c.BenchmarkError(f"plain chain failed (exit {proc.returncode}): {err.strip()}")
-    data: dict[str, Any] = json.loads(out)
-    data["command"] = " ".join(cmd)
-    data["steal_ms"] = c.steal_ms() - steal0
-    return data
+    return c.run_reference("_plain_chain.py", FREQUENCY, duration, "--components",
+                           str(COMPONENTS), *(["--timed"] if timed else []))
 
 
 def run_tight(pure: bool) -> dict[str, Any]:

@@ -12,9 +12,7 @@ ns per iteration of the same work at each layer: a noise-free complement.
 
 from __future__ import annotations
 
-import json
 import os
-import subprocess
 import sys
 import time
 from collections.abc import Callable
@@ -32,30 +30,7 @@ TARGET_RATIO = 1.5
 
 def run_plain(duration: float) -> dict[str, Any]:
     """The plain loop in its own process, same priority and CPU as rtcf's loop."""
-    cmd = [
-        sys.executable,
-        str(Path(__file__).with_name("_plain_loop.py")),
-        "--frequency",
-        str(FREQUENCY),
-        "--duration",
-        f"{duration:g}",
-        "--cpu",
-        str(c.RT_CPU),
-        "--priority",
-        str(c.PRIORITY),
-    ]
-    steal0 = c.steal_ms()
-    proc = subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True)
-    try:
-        out, err = proc.communicate(timeout=duration * 3 + 60)
-    finally:
-        c.stop_process(proc)
-    if proc.returncode != 0:
-        raise c.BenchmarkError(f"plain loop failed (exit {proc.returncode}): {err.strip()}")
-    data: dict[str, Any] = json.loads(out)
-    data["command"] = " ".join(cmd)
-    data["steal_ms"] = c.steal_ms() - steal0
-    return data
+    return c.run_reference("_plain_loop.py", FREQUENCY, duration)
 
 
 # -- in-process tight loops -------------------------------------------------------------
@@ -105,18 +80,6 @@ def plain_functions(n: int) -> float:
     return r3
 
 
-class _NoSleepClock:
-    """The system clock without the sleep: the executor runs iterations back to back."""
-
-    simulated = False
-
-    def __init__(self) -> None:
-        self.now_ns = time.monotonic_ns
-
-    def sleep_until_ns(self, deadline_ns: int) -> None:
-        pass
-
-
 # the multi-rate case: Fig. 1 with R1, R2 and R3 every 2nd iteration (phases spread by
 # the runner), so that iterations alternate between 5 and 2 or 3 updates
 SLOW = {"R1": 2, "R2": 2, "R3": 2}
@@ -128,7 +91,7 @@ def _fig1_runner(every: dict[str, int] | None = None) -> Any:
     import rtcf
 
     runner = rtcf.Runner(
-        rtcf.RunnerSettings(frequency=FREQUENCY), clock=_NoSleepClock(), log_level="warning"
+        rtcf.RunnerSettings(frequency=FREQUENCY), clock=c.NoSleepClock(), log_level="warning"
     )
     for node in c.fig1_nodes():
         params = dict(node.params)
@@ -149,16 +112,6 @@ def _fig1_runner(every: dict[str, int] | None = None) -> Any:
 def _phase_calls(runner: Any) -> list[list[Callable[[], object]]]:
     """The updates each phase of the hyperperiod runs, as the executor's plans say."""
     return [[u for _, u in plan.steps] for plan in runner._executor.plans]
-
-
-def best_ns_per_iteration(fn: Callable[[int], object], n: int, repeats: int) -> float:
-    """timeit's convention: the best of ``repeats`` runs is the least disturbed one."""
-    best = float("inf")
-    for _ in range(repeats):
-        t0 = time.perf_counter_ns()
-        fn(n)
-        best = min(best, (time.perf_counter_ns() - t0) / n)
-    return best
 
 
 def tight_loops(quick: bool) -> dict[str, Any]:
@@ -191,18 +144,20 @@ def tight_loops(quick: bool) -> dict[str, Any]:
         runner.run(1000)  # start hooks, compile, warm up
         out = {
             "conditions": f"{sched}, CPU {c.RT_CPU}, best of {repeats}",
-            "plain inline sums": best_ns_per_iteration(plain_inline, n_plain, repeats),
-            "plain inline sums + 2 clock reads": best_ns_per_iteration(
+            "plain inline sums": c.best_ns_per_iteration(plain_inline, n_plain, repeats),
+            "plain inline sums + 2 clock reads": c.best_ns_per_iteration(
                 plain_inline_timed, n_plain, repeats
             ),
-            "plain, five function calls": best_ns_per_iteration(plain_functions, n_plain, repeats),
-            "rtcf: the five Mimo.update calls only": best_ns_per_iteration(
+            "plain, five function calls": c.best_ns_per_iteration(
+                plain_functions, n_plain, repeats
+            ),
+            "rtcf: the five Mimo.update calls only": c.best_ns_per_iteration(
                 components_only, n_rtcf, repeats
             ),
-            "rtcf: Executor (Runner.run, no sleep, no log drain)": best_ns_per_iteration(
+            "rtcf: Executor (Runner.run, no sleep, no log drain)": c.best_ns_per_iteration(
                 executor_no_drain, n_rtcf, repeats
             ),
-            "rtcf: Executor (Runner.run, no sleep), as the CLI runs it": best_ns_per_iteration(
+            "rtcf: Executor (Runner.run, no sleep), as the CLI runs it": c.best_ns_per_iteration(
                 executor, n_rtcf, repeats
             ),
         }
@@ -225,11 +180,11 @@ def tight_loops(quick: bool) -> dict[str, Any]:
 
             out["several rates: hyperperiod"] = len(phases)
             out["several rates: updates per phase"] = [len(p) for p in phases]
-            out["several rates: the same update calls only"] = best_ns_per_iteration(
+            out["several rates: the same update calls only"] = c.best_ns_per_iteration(
                 slow_components_only, n_rtcf, repeats
             )
             out["several rates: Executor (Runner.run, no sleep, no log drain)"] = (
-                best_ns_per_iteration(slow_executor, n_rtcf, repeats)
+                c.best_ns_per_iteration(slow_executor, n_rtcf, repeats)
             )
             phase_calc = slow.run(n_rtcf).timing.phases_us
             for phase, stats in phase_calc.items():
