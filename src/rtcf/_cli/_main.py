@@ -16,6 +16,7 @@ from types import FrameType
 from typing import Any
 
 from .. import __version__
+from .._core import _hotpath
 from .._core._clock import MonotonicClock, SimClock
 from .._core._errors import LaunchError, RtcfError
 from .._core._graph import Graph, to_dot, to_mermaid
@@ -403,7 +404,7 @@ def _say_realtime(realtime: dict[str, Any], simulated: bool) -> None:
     """One line for what took effect, one per setting that did not (with its reason)."""
     hot = realtime.get("hot_path") or {}
     path = "hot path compiled (C)" if hot.get("path") == "compiled" else "hot path in Python"
-    if hot.get("path") == "Python" and hot.get("why") != "RTCF_PURE_PYTHON is set":
+    if hot.get("path") == "Python" and hot.get("why") != _hotpath.FORCED:
         _say(f"warning: the loop's hot path runs in Python, several times slower per "
              f"component: {hot.get('why')}")
     if simulated:

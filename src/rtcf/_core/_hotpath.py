@@ -1,7 +1,8 @@
 """Which hot path runs: the compiled one (``_compiled.c``) or the same in Python.
 
 The compiled module is built when rtcf is installed with a C compiler at hand. Where
-it is missing, the loop runs the Python one (``_interpreted.py``) and says so once;
+it is missing, the loop runs the Python one (``_interpreted.py``), and ``rtcf launch``
+says so once (from the worker's ``realtime.hot_path``);
 ``RTCF_PURE_PYTHON=1`` asks for the Python one. Both give the same values; the
 compiled one costs a fraction per component (docs/performance.md#the-hot-path-in-c).
 """
@@ -17,8 +18,9 @@ _module: Any = _interpreted
 #: "compiled" or "Python"; and, for Python, why (empty when compiled)
 HOT_PATH = "Python"
 WHY = ""
+FORCED = "RTCF_PURE_PYTHON is set"  # the why of a Python path asked for: no warning
 if os.environ.get("RTCF_PURE_PYTHON", "") not in ("", "0"):
-    WHY = "RTCF_PURE_PYTHON is set"
+    WHY = FORCED
 else:
     try:
         from . import _compiled  # type: ignore[attr-defined]
@@ -61,9 +63,3 @@ def describe() -> str:
     """One phrase for the run's report: which path, and why Python if it is."""
     return "compiled (C)" if HOT_PATH == "compiled" else f"Python ({WHY})"
 
-
-def warning() -> str | None:
-    """The one line to show when the compiled path was expected but is missing."""
-    if HOT_PATH == "compiled" or WHY == "RTCF_PURE_PYTHON is set":
-        return None
-    return f"the loop's hot path runs in Python, several times slower per component: {WHY}"

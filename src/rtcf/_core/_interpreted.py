@@ -60,7 +60,7 @@ _NO_LOOP = _NoLoop()
 class Port(Generic[T]):
     """Common part of inputs and outputs."""
 
-    __slots__ = ("__state", "_seen", "_slot", "_tap", "component", "name", "topic", "type")
+    __slots__ = ("_loop", "_seen", "_slot", "_tap", "component", "name", "topic", "type")
 
     def __init__(self, component: str, name: str, type_: type[T]) -> None:
         self.component = component  # full name of the owning component
@@ -68,7 +68,7 @@ class Port(Generic[T]):
         self.type = type_
         self.topic = ""  # resolved topic name, set when the runner wires the graph
         self._slot = Slot()
-        self.__state: Any = _NO_LOOP
+        self._loop: Any = _NO_LOOP  # the loop state a write reads (never None)
         self._seen = 0  # an input's: the slot's seq at its last read
         # an output's: called with every written value while it is mapped or recorded
         self._tap: Callable[[Any], None] | None = None
@@ -79,12 +79,12 @@ class Port(Generic[T]):
 
     @property
     def _state(self) -> LoopState | None:
-        state = self.__state
+        state = self._loop
         return None if isinstance(state, _NoLoop) else state
 
     @_state.setter
     def _state(self, state: LoopState | None) -> None:
-        self.__state = _NO_LOOP if state is None else state
+        self._loop = _NO_LOOP if state is None else state
 
 
 class OutputPort(Port[T]):
@@ -103,7 +103,7 @@ class OutputPort(Port[T]):
         slot = self._slot
         slot.value = value
         slot.seq += 1
-        slot.iteration = self._Port__state.iteration  # type: ignore[attr-defined]
+        slot.iteration = self._loop.iteration
         tap = self._tap
         if tap is not None:  # mapped to the middleware or recorded: the tap too, after
             tap(value)
