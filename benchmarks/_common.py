@@ -458,6 +458,30 @@ def rt_wrapper(allow: bool, workdir: Path) -> list[str]:
     return _wrapper_cache
 
 
+# rtcf's two hot paths (docs/performance.md#the-hot-path-in-c): the environment that
+# picks each, and what timing.json's realtime.hot_path.path then says
+HOT_PATHS = {
+    "compiled": ({"RTCF_PURE_PYTHON": "0"}, "compiled"),
+    "pure": ({"RTCF_PURE_PYTHON": "1"}, "Python"),
+}
+HOT_PATH_LABELS = {"compiled": "compiled hot path", "pure": "pure Python hot path"}
+
+
+def run_rtcf_on(hot_path: str, launch: Path, duration_s: float, report_dir: Path,
+                **kwargs: Any) -> RtcfRun:
+    """:func:`run_rtcf` on one hot path (``compiled`` or ``pure``); a BenchmarkError if
+    rtcf ran the other one (the comparison would be wrong)."""
+    env, expected = HOT_PATHS[hot_path]
+    run = run_rtcf(launch, duration_s, report_dir, env=env, **kwargs)
+    hot = run.timing.get("realtime", {}).get("hot_path", {})
+    if hot.get("path") != expected:
+        raise BenchmarkError(
+            f"rtcf ran its hot path {hot.get('path')!r} ({hot.get('why') or 'no reason given'}), "
+            f"not {expected!r}"
+        )
+    return run
+
+
 def rt_conditions(run: RtcfRun) -> dict[str, Any]:
     """The realtime section of timing.json plus what the benchmark added."""
     rt = dict(run.timing.get("realtime", {}))

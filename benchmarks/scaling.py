@@ -3,7 +3,8 @@
 The chain is one ``rtcf_examples Sine`` (a source that writes every iteration) feeding
 N-1 ``rtcf_examples Identity`` components (in_port -> out_port, copied when new), so
 every component reads and writes a port in every iteration. Each size runs at a rate
-it can sustain, at SCHED_FIFO 80 on the loop's CPU. Per-component cost is the
+it can sustain, at SCHED_FIFO 80 on the loop's CPU, on rtcf's compiled hot path and on
+its pure Python one (``RTCF_PURE_PYTHON=1``), one after the other. Per-component cost is the
 iteration's p50 divided by N; launch time is the wall time from spawning ``rtcf`` until
 the loop starts (an upper bound: the earlier of the CLI printing its ``real-time:``
 line and printing ``ran N iterations`` minus the loop's duration).
@@ -62,11 +63,13 @@ def main() -> int:
     with c.workdir() as work, c.cpu_dma_latency_zero() as held:
         wrapper = c.rt_wrapper(not args.no_rt_wrapper, work)
         baseline = interpreter_start_s()
-        for n, frequency in SIZES:
+        for (n, frequency), path in ((size, p) for size in SIZES for p in c.HOT_PATHS):
             launch = work / f"chain{n}.launch"
             launch.write_text(c.launch_xml(chain(n), frequency=frequency))
-            print(f"{n} components at {frequency:g} Hz, {duration:g} s ...", file=sys.stderr)
-            run = c.run_rtcf(launch, duration, work / f"report{n}", wrapper=wrapper)
+            print(f"{n} components at {frequency:g} Hz, {path} hot path, {duration:g} s ...",
+                  file=sys.stderr)
+            run = c.run_rtcf_on(path, launch, duration, work / f"report{n}-{path}",
+                                wrapper=wrapper)
             t = run.timing
             comps = t.get("components", {})
             identity_p50 = [
@@ -76,6 +79,7 @@ def main() -> int:
                 {
                     "components": n,
                     "frequency_hz": frequency,
+                    "hot_path": path,
                     "iterations": t["iterations"],
                     "overruns": t["overruns"],
                     "calc_us": t["calc_us"],
@@ -93,6 +97,8 @@ def main() -> int:
             )
     elapsed = time.perf_counter() - started
 
+    compiled_p50 = {r["components"]: r["calc_us"]["p50"] for r in results
+                    if r["hot_path"] == "compiled"}
     rows = []
     for r in results:
         cu = r["calc_us"]
@@ -100,10 +106,12 @@ def main() -> int:
             [
                 str(r["components"]),
                 f"{r['frequency_hz']:g}",
+                r["hot_path"],
                 c.fmt(cu["p50"]),
                 c.fmt(cu["p999"]),
                 c.fmt(cu["max"]),
                 c.fmt(r["per_component_us"], 2),
+                c.fmt_ratio(c.ratio(cu["p50"], compiled_p50[r["components"]])),
                 c.fmt(r["identity_component_p50_us_median"], 2),
                 str(r["overruns"]),
                 c.fmt(r["jitter_us"]["p999"]),
@@ -113,24 +121,33 @@ def main() -> int:
     headers = [
         "components",
         "Hz",
+        "hot path",
         "calc p50 [µs]",
         "calc p99.9",
         "calc max",
         "p50 / N [µs]",
+        "p50 / compiled",
         "one Identity p50 [µs]",
         "overruns",
         "jitter p99.9 [µs]",
         "launch [s]",
     ]
     tab = c.table(headers, rows)
-    first, last = results[0], results[-1]
+    compiled = [r for r in results if r["hot_path"] == "compiled"]
+    first, last = compiled[0], compiled[-1]
     growth = (last["calc_us"]["p50"] / first["calc_us"]["p50"]) / (
         last["components"] / first["components"]
     )
+    pure_ratio = ", ".join(
+        f"{n}: {c.fmt_ratio(c.ratio(r['calc_us']['p50'], compiled_p50[n]))}"
+        for r in results if r["hot_path"] == "pure" and (n := r["components"])
+    )
     summary = (
-        f"calc p50 grows {last['calc_us']['p50'] / first['calc_us']['p50']:.0f}x for "
+        f"on the compiled hot path, calc p50 grows "
+        f"{last['calc_us']['p50'] / first['calc_us']['p50']:.0f}x for "
         f"{last['components'] // first['components']}x the components "
-        f"({growth:.2f} of linear); `python -m rtcf --version` alone takes {baseline:.2f} s"
+        f"({growth:.2f} of linear); the pure Python hot path's calc p50 over the compiled "
+        f"one's ({pure_ratio}); `python -m rtcf --version` alone takes {baseline:.2f} s"
     )
     print(f"machine: {c.machine_line(machine)}")
     print(tab)
@@ -150,14 +167,15 @@ def main() -> int:
     path = c.write_results(NAME, data, args.quick)
     print(f"wrote {path.relative_to(c.REPO)}")
     if not args.quick:
-        rt = results[0]["realtime"]
+        rt = compiled[0]["realtime"]
         how = f"rtcf reported scheduler {rt.get('scheduler')}" + (
             f", run under `{rt['wrapper']}`" if rt.get("wrapper") else ""
         )
         body = "\n".join(
             [
                 f"A chain of one `Sine` and N-1 `Identity` components (every one reads and "
-                f"writes a port each iteration), **{duration:g} s** per size, idle; {how}. "
+                f"writes a port each iteration), **{duration:g} s** per size and hot path "
+                f"(compiled, and pure Python with `RTCF_PURE_PYTHON=1`), idle; {how}. "
                 "Launch: wall time from spawning `rtcf launch` until the loop started "
                 "(interpreter start, parsing, imports, loading, wiring, starting the worker, "
                 "mlockall, pre-faulting), an upper bound: the earlier of the CLI printing its "

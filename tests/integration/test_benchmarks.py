@@ -17,8 +17,8 @@ ROOT = Path(__file__).resolve().parents[2]
     ("name", "printed"),
     [
         ("paper_evaluation", "ratio rtcf / cyclictest"),
-        ("overhead", "ratio rtcf / plain"),
-        ("scaling", "| 1000 "),
+        ("overhead", "ratio rtcf pure / plain"),
+        ("scaling", re.compile(r"\| 1000 +\| 200 +\| pure ")),
         ("channels", "| mailbox try_read_into "),
         ("lanes", "| LET lane "),
         # all four rows, and a ratio that is a number (a failed run prints "-")

@@ -119,3 +119,15 @@ def test_evaluate_performance_rosbag_of_a_recorded_bag(ros_node, tmp_path):
     text = rosrun("evaluate_performance_rosbag", bag_path, 200, "--output", tmp_path / "f.png")
     assert f"{len(rows):,} iterations on /rt_runner/iteration_info" in text
     assert "calculation" in text and (tmp_path / "f.png").is_file()
+
+
+@pytest.mark.parametrize("exe", ["rt_runner", "rt_launcher"])
+def test_help_prints_the_usage_without_a_master(exe):
+    env = {**ros1_env(), "ROS_MASTER_URI": "http://127.0.0.1:9"}  # nothing answers there
+    out = subprocess.run(["rosrun", "rtcf", exe, "--help"], capture_output=True, text=True,
+                         env=env, timeout=60, stdin=subprocess.DEVNULL)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.startswith(f"usage: {exe} [-h]")
+    assert "docs/ros1.md" in out.stdout and "_NAME:=VALUE" in out.stdout
+    if exe == "rt_runner":
+        assert "\n  frequency " in out.stdout and "~load_component" in out.stdout

@@ -237,3 +237,25 @@ def test_a_launcher_stops_waiting_for_an_unload_once_its_runner_is_gone(ros_node
     # it gave up when the runner left the graph, not after the answer's 60 s
     assert "warning: unload refused: the runner /rt_runner is gone" in err, err
     assert a.returncode == 0
+
+
+@pytest.mark.parametrize("exe", ["rt_runner", "rt_launcher"])
+def test_help_prints_the_usage_and_starts_no_node(exe):
+    from rtcf._core._settings import parameter_help
+
+    out = subprocess.run([str(BIN / exe), "--help"], capture_output=True, text=True,
+                         env=rtcf_env(), timeout=60, stdin=subprocess.DEVNULL)
+    assert out.returncode == 0, out.stderr
+    assert out.stdout.startswith(f"usage: {exe} [-h]")
+    assert "--ros-args" in out.stdout and "docs/ros2.md" in out.stdout
+    assert out.stderr == ""  # no node started: no "ready", no ROS log line
+    if exe == "rt_runner":  # every runner parameter, and its services
+        for name, _, _ in parameter_help():
+            assert f"\n  {name} " in out.stdout, name
+        assert "~/load_component" in out.stdout
+    else:
+        assert "MODULE CLASS" in out.stdout and "\n  lane " in out.stdout
+    # after --ros-args, -h is not ours: the usage is asked for only before it
+    from rtcf._runtime._usage import asks_for_help
+
+    assert not asks_for_help([exe, "--ros-args", "-p", "x:=1", "-h"])

@@ -36,6 +36,7 @@ else:
 if TYPE_CHECKING:  # the two have the same API: type-check against the Python one
     from ._interpreted import (
         Calculation,
+        Handover,
         HeartbeatWatch,
         InputPort,
         LoopState,
@@ -56,6 +57,7 @@ else:
     RingGate = _module.RingGate
     HeartbeatWatch = _module.HeartbeatWatch
     WordTap = _module.WordTap  # None on the Python path
+    Handover = _module.Handover  # None on the Python path
     set_flow_status = _module.set_flow_status
 
 

@@ -312,3 +312,8 @@ class HeartbeatWatch:
 # compiled (rtcf._core._compiled.WordTap). The Python path records through
 # rtcf._runtime._recording's own taps, which push the same records.
 WordTap = None
+
+# A value crossing lanes (a send, a receive, a LET lane's output): only compiled
+# (rtcf._core._compiled.Handover). The Python path hands over through
+# rtcf._runtime._lanes's own classes, which do the same.
+Handover = None

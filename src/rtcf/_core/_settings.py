@@ -250,6 +250,45 @@ _EXPECTED = {
     "heartbeat_timeout": "a number of seconds",
     "lanes": "'name:cpu[:priority], ...' or a mapping of lane names to {cpu, priority}",
 }
+# one line each, for rt_runner --help (docs/runner.md has the whole story)
+_MEANING = {
+    "mode": "no_wait, wait_for_components or wait_for_trigger: when the loop starts",
+    "num_components_expected": "the components wait_for_components waits for",
+    "frequency": "the loop's rate [Hz]",
+    "wait_policy": "absolute (stay on the grid after an overrun) or relative (re-anchor)",
+    "ros_mapping_whitelist": "full-match regex: ports whose topics map to ROS topics",
+    "ros_mapping_blacklist": "full-match regex: ports not mapped even if whitelisted",
+    "lock_memory": "mlockall the worker",
+    "safe_heap_size_kB": "heap pre-faulted before the loop starts",
+    "safe_stack_size_kB": "stack pre-faulted before the loop starts",
+    "cpu_affinity_mask": "the CPUs of the loop, a bit mask (2: CPU 1; 0: unchanged)",
+    "priority": "the loop's SCHED_FIFO priority, 1 to 99",
+    "use_sim_time": "follow /clock (the loop waits for it)",
+    "ros_qos_depth": "QoS depth of the mapped topics",
+    "ros_qos_reliability": "reliable or best_effort",
+    "ros_qos_durability": "volatile or transient_local",
+    "iteration_info": "publish ~/iteration_info, one message per iteration",
+    "max_consecutive_overruns": "watchdog: overruns in a row that end the loop (0: off)",
+    "max_overruns_per_second": "watchdog: overruns within a second that end it (0: off)",
+    "max_let_overruns": "watchdog: windows a LET lane may miss in a run (0: off)",
+    "hook_timeout": "seconds a configure/start/stop/cleanup/safe_stop hook may take",
+    "heartbeat_timeout": "seconds the loop runs on without its supervisor (0: off)",
+    "lanes": "where lanes run: 'name:cpu[:priority], ...'",
+}
+
+
+def parameter_help() -> list[tuple[str, str, str]]:
+    """(name, default, meaning) of every runner parameter, in the order above."""
+    fields = RunnerSettings.__dataclass_fields__
+    out = []
+    for name in _CONVERTERS:
+        default = fields[name].default
+        shown = "" if default in ("", None) else (
+            str(default).lower() if isinstance(default, bool) else str(default))
+        out.append((name, shown, _MEANING[name]))
+    return out
+
+
 # parameters a runner node may carry that are not settings
 _IGNORED: set[str] = set()
 

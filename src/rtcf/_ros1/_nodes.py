@@ -56,6 +56,7 @@ from .._core._runner import ComponentSpec
 from .._core._settings import RunnerSettings
 from .._launch._rosconsole import from_environment as rosconsole_config
 from .._runtime._requests import Request, RequestQueue, serve_request
+from .._runtime._usage import asks_for_help, launcher_usage, runner_usage
 
 if TYPE_CHECKING:
     from ._face import ComponentLogger
@@ -129,6 +130,9 @@ class _Watch:
 
 def runner_main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv if argv is None else argv)
+    if asks_for_help(argv):  # before any middleware: no node, no master
+        print(runner_usage("ros1"))
+        return 0
     try:
         msg, srv = _msgs()
         from ._bridge import Ros1Bridge, _import_rospy
@@ -381,6 +385,9 @@ def runner_info(msg: Any, data: dict[str, Any]) -> Any:
 
 def launcher_main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv if argv is None else argv)
+    if asks_for_help(argv):  # before any middleware: no node, no master
+        print(launcher_usage("ros1"))
+        return 0
     try:
         _, srv = _msgs()
         from ._bridge import _import_rospy, _keep_root_logging

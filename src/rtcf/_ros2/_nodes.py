@@ -48,6 +48,7 @@ from .._core._rates import Rate
 from .._core._runner import ComponentSpec
 from .._core._settings import RunnerSettings
 from .._runtime._requests import Request, RequestQueue, serve_request
+from .._runtime._usage import asks_for_help, launcher_usage, runner_usage
 from ._face import ComponentFace, ros_logger_name
 
 WATCH_EVERY_S = 1.0
@@ -128,6 +129,9 @@ def runner_main(argv: list[str] | None = None) -> int:
     from ._bridge import Ros2Bridge
 
     argv = list(sys.argv if argv is None else argv)
+    if asks_for_help(argv):  # before any middleware: no node, no master
+        print(runner_usage("ros2"))
+        return 0
     rclpy, node = _node("rt_runner", argv)
     name = node.get_fully_qualified_name()
     try:
@@ -319,6 +323,9 @@ def launcher_main(argv: list[str] | None = None) -> int:
     from rclpy.utilities import remove_ros_args
 
     argv = list(sys.argv if argv is None else argv)
+    if asks_for_help(argv):  # before any middleware: no node, no master
+        print(launcher_usage("ros2"))
+        return 0
     words = remove_ros_args(argv)[1:]
     is_first = any(w in ("-f", "--is_first") for w in words)
     positional = [w for w in words if not w.startswith("-")]

@@ -17,7 +17,9 @@ deadline (the main lane picks them once every lane is ready), and a lane that st
 (asked to, or failing) says after which iteration, so the others stop there too.
 
 This module holds both sides: the layout the supervisor computes, and the steps a
-worker's runner binds into its plan (:attr:`rtcf._core._runner.Runner.handovers`).
+worker's runner binds into its plan (:attr:`rtcf._core._runner.Runner.handovers`): on
+the compiled hot path rtcf._core._compiled.Handover, else the classes at the end of
+this module, which do the same in Python (tests/unit/test_lane_handovers.py runs both).
 """
 
 from __future__ import annotations
@@ -31,6 +33,7 @@ from typing import Any
 
 from .._core._errors import ConfigurationError
 from .._core._executor import ABORT, STOP, StopFlag
+from .._core._hotpath import Handover
 from .._core._lanes import LET_IN, LET_OUT, RECV, SEND, TAKE, Lane, Step
 from .._core._ports import OutputPort, Slot
 from .._core._rings import FENCED, acquire_fence, release_fence
@@ -182,7 +185,9 @@ class LaneLink:
         self.words: memoryview = buf.cast("q")
         self.base = HEADER_WORDS + LANE_WORDS * self.index  # this lane's words
         self.channels = {c.topic: c for c in lanes.channels}
-        self.steps: list[_Handover] = []
+        # (label, a lock-step send, the handover bound into the plan): the compiled
+        # one where it is built (rtcf._core._compiled.Handover), else the classes below
+        self.steps: list[tuple[str, bool, Any]] = []
         self.state: Any = None
         self.stop: StopFlag | None = None  # the stop word the supervisor writes
         # the lane's own stop word, the one its loop reads: only this lane sets it, in
@@ -212,19 +217,27 @@ class LaneLink:
         for k in range(DEPTH):
             at = channel.offset + k * channel.entry_bytes
             entries.append((at // 8, self.buf[at + 8 * ENTRY_WORDS : at + channel.entry_bytes]))
-        handover: _Handover
-        if step.kind in (SEND, LET_OUT):
-            handover = _Send(self, step, port._slot, channel, entries, codec.encode)
-        elif step.kind in (RECV, TAKE, LET_IN):
-            source = HEADER_WORDS + LANE_WORDS * self.layout.index(channel.lane)
-            decode = codec.decode_buffer()
-            if step.kind == LET_IN:
-                handover = _LetIn(self, step, port._slot, channel, entries, decode, source)
-            else:
-                handover = _Recv(self, step, port._slot, channel, entries, decode, source)
-        else:
+        source = HEADER_WORDS + LANE_WORDS * self.layout.index(channel.lane) + L_LAST
+        send = step.kind in (SEND, LET_OUT)
+        if step.kind not in (SEND, LET_OUT, RECV, TAKE, LET_IN):
             raise ConfigurationError(f"lane {self.lane!r}: unknown handover {step.kind!r}")
-        self.steps.append(handover)
+        mode = _SEND if send else _LET_IN if step.kind == LET_IN else _RECV
+        delayed = 1 if (step.delayed or step.kind == TAKE) else 0
+        code: Any = codec.encode if send else codec.decode_buffer()
+        every, phase = self.layout.kinds[self.layout.index(channel.lane)]
+        assert self.state is not None, "bound() before bind()"
+        handover: Any
+        if Handover is not None:
+            handover = Handover(
+                mode, self.words, tuple(entries), self.state, port._slot, codec.kind, code,
+                channel.max_size, delayed, source, channel.step, every, phase,
+                self.simulated, self.period_ns,
+                None if self.now is time.monotonic_ns else self.now, self.pause is _nap,
+            )
+        else:
+            kind = (_Send, _Recv, _LetIn)[mode]
+            handover = kind(self, step, port._slot, channel, entries, code, source)
+        self.steps.append((step.label, step.kind == SEND, handover))
         return handover
 
     def bound(self, state: Any, stop: StopFlag, now: Callable[[], int]) -> None:
@@ -242,8 +255,8 @@ class LaneLink:
         words, base, state = self.words, self.base, self.state
         assert state is not None
         if state.iteration >= 0:  # it ran before: what its last iteration left, for a
-            for h in self.steps:  # delayed reader's first iteration (a new segment
-                if isinstance(h, _Send) and h.lock_step:  # after a load has none)
+            for _, lock_step_send, h in self.steps:  # delayed reader's first iteration
+                if lock_step_send:  # (a new segment after a load has none)
                     h()
         self.decision.clear()
         words[base + L_LAST] = state.iteration
@@ -380,14 +393,14 @@ class LaneLink:
         """Per handover topic: values that came late or were lost (real time), and
         the windows a LET lane had not finished (LET overruns)."""
         out: dict[str, dict[str, int]] = {}
-        for h in self.steps:
+        for label, _, h in self.steps:
             c = {k: v for k in ("late", "lost", "let_overruns") if (v := getattr(h, k, 0))}
             if c:
-                out[h.label] = c
+                out[label] = c
         return out
 
     def release(self) -> None:
-        for h in self.steps:
+        for _, _, h in self.steps:
             h.release()
         self.steps.clear()
         self.words.release()
@@ -397,17 +410,22 @@ class Aborted(Exception):
     """The run ended (a signal, a lane gone) before every lane was ready."""
 
 
+_SEND, _RECV, _LET_IN = 0, 1, 2  # a handover's mode (rtcf._core._compiled.Handover's)
+
+
 class _Handover:
-    __slots__ = ("entries", "label", "link", "slot", "step", "words")
+    """The Python path's handovers (rtcf._core._compiled.Handover is the same in C)."""
+
+    __slots__ = ("entries", "link", "slot", "source", "step", "words")
 
     def __init__(self, link: LaneLink, step: Step, slot: Slot, channel: Channel,
-                 entries: Sequence[tuple[int, memoryview]]) -> None:
+                 entries: Sequence[tuple[int, memoryview]], source: int) -> None:
         self.link = link
         self.words = link.words
         self.slot = slot
         self.step = channel.step
         self.entries = tuple(entries)
-        self.label = step.label
+        self.source = source  # the producer lane's L_LAST word
 
     def release(self) -> None:
         for _, view in self.entries:
@@ -418,24 +436,23 @@ class _Handover:
 class _Send(_Handover):
     """After the producer (in every iteration): its slot, stamped with the version."""
 
-    __slots__ = ("encode", "lock_step", "too_big")
+    __slots__ = ("encode", "too_big")
 
     def __init__(self, link: LaneLink, step: Step, slot: Slot, channel: Channel,
-                 entries: Sequence[tuple[int, memoryview]], encode: Callable[[Any], bytes]) -> None:
-        super().__init__(link, step, slot, channel, entries)
+                 entries: Sequence[tuple[int, memoryview]], encode: Callable[[Any], bytes],
+                 source: int) -> None:
+        super().__init__(link, step, slot, channel, entries, source)
         self.encode = encode
         self.too_big = channel.max_size
-        self.lock_step = step.kind == SEND  # (not a LET lane's output)
 
     def __call__(self) -> None:
         v = self.link.state.iteration
         w, payload = self.entries[(v // self.step) % DEPTH]
         words = self.words
         slot = self.slot
-        words[w] = -1
-        if FENCED:
-            release_fence()
-        if slot.seq:
+        data = b""
+        n = -1
+        if slot.seq:  # the value first: one that cannot be encoded leaves the entry
             data = self.encode(slot.value)
             n = len(data)
             if n > self.too_big:
@@ -443,9 +460,11 @@ class _Send(_Handover):
                     f"a value of {n} bytes is larger than a lane's channel holds "
                     f"({self.too_big}); send less per iteration"
                 )
+        words[w] = -1  # being written: a reader that read this entry meanwhile drops it
+        if FENCED:
+            release_fence()
+        if n >= 0:
             payload[:n] = data
-        else:
-            n = -1
         words[w + 1] = slot.seq
         words[w + 2] = slot.iteration
         words[w + 3] = n
@@ -458,15 +477,14 @@ class _Recv(_Handover):
     """Before the first reader: the producer's value of this iteration (or of the last,
     delayed; a LET lane takes the last at its release), into the readers' slot."""
 
-    __slots__ = ("decode", "delayed", "late", "lost", "source")
+    __slots__ = ("decode", "delayed", "late", "lost")
 
     def __init__(self, link: LaneLink, step: Step, slot: Slot, channel: Channel,
                  entries: Sequence[tuple[int, memoryview]],
                  decode: Callable[[Any, int], Any], source: int) -> None:
-        super().__init__(link, step, slot, channel, entries)
+        super().__init__(link, step, slot, channel, entries, source)
         self.decode = decode
         self.delayed = 1 if (step.delayed or step.kind == TAKE) else 0
-        self.source = source + L_LAST
         self.late = 0
         self.lost = 0
 
@@ -505,8 +523,9 @@ class _Recv(_Handover):
         did not come before this iteration's period ended (late)."""
         link = self.link
         words = self.words
-        limit = sys.maxsize if link.simulated else (
-            link.origin_ns + link.state.time_ns + link.period_ns
+        simulated = link.simulated
+        limit = 0 if simulated else (
+            words[W_ORIGIN_NS] + link.state.time_ns + link.period_ns
         )
         now = link.now
         while True:
@@ -521,7 +540,7 @@ class _Recv(_Handover):
                 return False
             if done >= v or words[W_STOP_AT] < v:
                 return False
-            if now() > limit:
+            if not simulated and now() > limit:
                 self.late += 1
                 return False
             link.pause()
@@ -555,7 +574,7 @@ class _LetIn(_Recv):
         words = self.words
         if r < words[W_FIRST]:
             return
-        w, payload = self.entries[(r // every) % DEPTH]
+        w, payload = self.entries[(r // self.step) % DEPTH]
         if words[w] != r:
             if not link.simulated:  # not finished in its window: keep the last value
                 self.let_overruns += 1
