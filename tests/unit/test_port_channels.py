@@ -108,6 +108,50 @@ def test_a_fed_input_reads_the_newest_message_of_its_mailbox():
             channel.close()
 
 
+def test_a_message_that_arrived_before_the_worker_set_up_its_run_is_read():
+    _, inp = _ports()
+    ports = mapped_ports([], [inp])
+    buf = memoryview(bytearray(segment_size(ports)))
+    channels = _supervisor_side(buf, ports)
+    channels["/ros/in"].write(codec_for(float).encode(3.5))  # the bridge was quicker
+    worker = WorkerPorts(buf, ports, [], [inp])
+    try:
+        worker.feeders[0]()
+        assert inp.read() == 3.5
+        assert worker.inputs() == {"/ros/in": {"read": 1, "superseded": 0}}
+    finally:
+        worker.release()
+        for channel in channels.values():
+            channel.close()
+
+
+def test_a_fed_input_counts_the_messages_a_newer_one_replaced_and_reads_each_once():
+    _, inp = _ports()
+    ports = mapped_ports([], [inp])
+    buf = memoryview(bytearray(segment_size(ports)))
+    channels = _supervisor_side(buf, ports)
+    worker = WorkerPorts(buf, ports, [], [inp])
+    box = channels["/ros/in"]
+    try:
+        (feeder,) = worker.feeders
+        seen = []
+        for burst in ([1.0], [2.0, 3.0, 4.0], [], [5.0, 6.0], [7.0]):
+            for v in burst:
+                box.write(codec_for(float).encode(v))
+            feeder()
+            if inp.has_new_data:
+                seen.append(inp.read())
+        assert seen == [1.0, 4.0, 6.0, 7.0]  # each once: a new value is new once
+        assert inp._slot.seq == 4
+        # 7 arrived = 4 read + 3 replaced before an iteration read them
+        assert worker.inputs() == {"/ros/in": {"read": 4, "superseded": 3}}
+        assert box.version == 7
+    finally:
+        worker.release()
+        for channel in channels.values():
+            channel.close()
+
+
 @pytest.mark.parametrize(
     "cls, values",
     [

@@ -111,6 +111,8 @@ def timing_document(result: RunResult, settings: RunnerSettings, wall_s: float) 
     }
     if result.aggregate is not None and not result.simulated:
         doc["histograms_ns"] = result.aggregate.histograms()
+    if result.inputs:  # mapped inputs: arrived, read, replaced by a newer one unread
+        doc["inputs"] = result.inputs
     if len(result.lanes) > 1:
         doc["lanes"] = {
             name: lane_document(lane, settings, keep) for name, lane in result.lanes.items()

@@ -605,6 +605,12 @@ class Mailbox:
         """Completed writes: a reader compares it with the last one it saw."""
         return self._ctl[_M_VERSION]
 
+    @property
+    def stamp(self) -> int:
+        """The write count of the value this reader last returned (0: none yet): how
+        many writes there were up to it, so a reader can count the ones it never saw."""
+        return self._newest
+
     def __repr__(self) -> str:
         try:
             return f"<Mailbox {self.size} bytes, version {self.version}>"

@@ -144,6 +144,9 @@ class RunResult:
     # lanes in worker processes of their own: per lane other than main, what it did
     # (iterations, overruns, timing, handovers late or lost, LET overruns)
     lanes: dict[str, dict[str, Any]] = field(default_factory=dict)
+    # inputs mapped to the middleware (by a supervisor): per topic, the messages that
+    # arrived, those the loop read, and those a newer one replaced before it read them
+    inputs: dict[str, dict[str, int]] = field(default_factory=dict)
 
 
 class _LetOverruns(Exception):

@@ -133,9 +133,12 @@ class Tap:
 
 
 class Feeder:
-    """Copies the newest message of a mailbox into the slots of the inputs it feeds."""
+    """Copies the newest message of a mailbox into the slots of the inputs it feeds,
+    and counts the messages that a newer one replaced before an iteration read them
+    (a mapped input holds the latest value: that is its meaning, not a fault)."""
 
-    __slots__ = ("_box", "_buf", "_decode", "_seen", "record", "slots", "topic", "type")
+    __slots__ = ("_box", "_buf", "_decode", "_seen", "read", "record", "slots",
+                 "superseded", "topic", "type")
 
     def __init__(
         self, box: Mailbox, codec: Codec, slots: list[Slot], topic: str = "", type_: type = float
@@ -143,7 +146,11 @@ class Feeder:
         self._box = box
         self._buf = bytearray(box.size)
         self._decode = codec.decode_buffer()
-        self._seen = box.version
+        # the write count of the value the slots hold: none of this run's (a message
+        # that arrived before the worker set up its run is read, not skipped)
+        self._seen = 0
+        self.read = 0  # messages the loop read
+        self.superseded = 0  # messages a newer one replaced before the loop read them
         self.slots = slots
         self.topic = topic
         self.type = type_
@@ -151,13 +158,17 @@ class Feeder:
 
     def __call__(self) -> None:
         box = self._box
-        version = box.version
-        if version == self._seen:
+        if box.version == self._seen:
             return
         n = box.try_read_into(self._buf)
         if n < 0:  # changed during the copy: the next iteration takes it
             return
-        self._seen = version
+        stamp = box.stamp  # the write count of the value read (newer than the version
+        if stamp == self._seen:  # read above, if a write completed meanwhile)
+            return
+        self.superseded += stamp - self._seen - 1
+        self._seen = stamp
+        self.read += 1
         value = self._decode(self._buf, n)
         for slot in self.slots:
             slot.value = value
@@ -221,6 +232,11 @@ class WorkerPorts:
     def counts(self) -> dict[str, int]:
         """Messages each output could not hand over because they were too large."""
         return {topic: tap.oversize for topic, tap in self.taps.items() if tap.oversize}
+
+    def inputs(self) -> dict[str, dict[str, int]]:
+        """Per mapped input: the messages the loop read, and those a newer one
+        replaced before an iteration read them."""
+        return {f.topic: {"read": f.read, "superseded": f.superseded} for f in self.feeders}
 
     def release(self) -> None:
         for port in self._tapped:

@@ -852,6 +852,7 @@ class WorkerRunner:
             run.aggregate.finish(run.ring, run.schedule)
             run.ring.close()
             self._close_segment(run.seg)
+        run.arrived = {t: c.version for t, c in run.channels.items() if isinstance(c, Mailbox)}
         for topic, channel in run.channels.items():
             if isinstance(channel, Ring) and channel.dropped:
                 self.log_sink(_note(30, f"{channel.dropped} messages on {topic} were dropped: "
@@ -867,6 +868,12 @@ class WorkerRunner:
         for topic, n in done.get("oversize", {}).items():
             self.log_sink(_note(30, f"{n} messages on {topic} were larger than a channel record "
                                     "and were not published"))
+        for topic, n in sorted(done.get("inputs", {}).items()):
+            arrived, superseded = run.arrived.get(topic, 0), n["superseded"]
+            if superseded:  # the meaning of a mapped input (the latest value), said once
+                self.log_sink(_note(20, f"{superseded} of {arrived} messages on {topic} were "
+                                        "replaced by a newer one before an iteration read "
+                                        "them (a mapped input holds the latest value)"))
 
     def _result(self, run: _Run, done: dict[str, Any]) -> RunResult:
         aggregate = run.aggregate
@@ -884,6 +891,8 @@ class WorkerRunner:
             safe_stops=[SafeStopOutcome(**o) for o in done.get("safe_stops", [])],
             lanes={self.lane: {"handovers": done.get("handovers", {}),
                                "missed": done.get("missed", 0)}},
+            inputs={t: {"arrived": run.arrived.get(t, 0), **n}
+                    for t, n in sorted(done.get("inputs", {}).items())},
         )
 
     def _port_channels(
@@ -1260,6 +1269,7 @@ class _Run:
     rec_seg: Segment | None = None
     drain: RecordingDrain | None = None
     done: dict[str, Any] | None = None
+    arrived: dict[str, int] = dataclasses.field(default_factory=dict)  # per mapped input
 
 
 class _LockedSink:

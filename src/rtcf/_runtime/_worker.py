@@ -468,6 +468,7 @@ class Worker:
             ring.close()
             seg.close()
             oversize = bridge.counts() if bridge else {}
+            inputs = bridge.inputs() if bridge else {}
             record_counts = recording.counts() if recording is not None else {}
             if recording is not None:
                 recording.release()  # before the bridge: it restores the bridge's taps
@@ -497,6 +498,7 @@ class Worker:
             "realtime": realtime,
             "last_iteration": runner.state.iteration,
             "oversize": oversize,
+            "inputs": inputs,
             "recording": record_counts,
             "faults": [f.to_dict() for f in result.faults],
             "safe_stops": [vars(o) for o in result.safe_stops],

@@ -1,0 +1,156 @@
+"""Two runners on two "hosts": network namespaces joined by a veth pair, as two
+computers on one Ethernet link, talking ROS 2 over DDS (docs/ros2.md#several-machines).
+
+Each namespace has its loopback and its end of the link (10.231.N.1 and .2), and a
+multicast route for DDS discovery. Fast DDS is told to use UDP only
+(``FASTDDS_BUILTIN_TRANSPORTS=UDPv4``): between two real hosts there is no shared
+memory, and on this one it would otherwise carry the data past the link. Nothing
+leaves the namespaces: they have no other interface, no default route.
+
+Host A counts (a Ramp publishes 1, 2, 3 ... on ``/hosts/seq``); host B echoes what
+it reads (an Identity to ``/hosts/back``); A reads the echo back. The checks use the
+sequence numbers, not a timing bound: every number B read is one A sent, in order;
+every number from B's first read on was read or counted as replaced by a newer one;
+nothing arrived that is not counted; the traffic crossed the link.
+"""
+
+import json
+import os
+import struct
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from .conftest import rtcf_env
+
+pytestmark = pytest.mark.integration
+
+SUBNET = f"10.231.{os.getpid() % 250}"
+
+
+def _ip(*args: str) -> None:
+    subprocess.run(["ip", *args], check=True, capture_output=True, text=True, timeout=30)
+
+
+@pytest.fixture
+def hosts():
+    """Two network namespaces joined by a veth pair; removed afterwards."""
+    if os.geteuid() != 0:
+        pytest.fail("test_several_hosts needs root (CAP_NET_ADMIN) to create network "
+                    "namespaces and a veth pair: run the ROS 2 suite as root, as CI does")
+    tag = os.getpid() % 100000
+    names = (f"rtcf_a{tag}", f"rtcf_b{tag}")
+    links = (f"rtcfa{tag}", f"rtcfb{tag}")
+    for ns in names:
+        _ip("netns", "add", ns)
+    try:
+        _ip("link", "add", links[0], "type", "veth", "peer", "name", links[1])
+        for k, (ns, link) in enumerate(zip(names, links, strict=True)):
+            _ip("link", "set", link, "netns", ns)
+            _ip("-n", ns, "addr", "add", f"{SUBNET}.{k + 1}/24", "dev", link)
+            _ip("-n", ns, "link", "set", "lo", "up")
+            _ip("-n", ns, "link", "set", link, "up")
+            _ip("-n", ns, "route", "add", "224.0.0.0/4", "dev", link)  # DDS discovery
+        yield list(zip(names, links, strict=True))
+    finally:
+        for ns in names:  # deleting a namespace deletes its end of the pair, and the pair
+            subprocess.run(["ip", "netns", "del", ns], capture_output=True, timeout=30)
+
+
+def _received_bytes(ns: str, link: str) -> int:
+    out = subprocess.run(["ip", "-n", ns, "-j", "-s", "link", "show", link],
+                         check=True, capture_output=True, text=True, timeout=30).stdout
+    return int(json.loads(out)[0]["stats64"]["rx"]["bytes"])
+
+
+def _launch(tmp_path: Path, name: str, frequency: float, nodes: str) -> Path:
+    path = tmp_path / f"{name}.launch"
+    path.write_text(f"""<launch>
+  <node name="rt_runner_{name}" pkg="rtcf" type="rt_runner">
+    <rosparam param="mode">"no_wait"</rosparam>
+    <rosparam param="frequency">{frequency}</rosparam>
+    <rosparam param="ros_mapping_whitelist">"/hosts/.*"</rosparam>
+    <rosparam param="iteration_info">False</rosparam>
+  </node>
+{nodes}
+</launch>
+""")
+    return path
+
+
+def _start(ns: str, launch: Path, duration: float, out: Path) -> subprocess.Popen:
+    env = {**rtcf_env(), "FASTDDS_BUILTIN_TRANSPORTS": "UDPv4"}
+    env.pop("ROS_LOCALHOST_ONLY", None)
+    env.pop("ROS_AUTOMATIC_DISCOVERY_RANGE", None)
+    cmd = ["ip", "netns", "exec", ns, sys.executable, "-m", "rtcf", "launch", str(launch),
+           "--middleware", "ros2", "--duration", str(duration), "--record",
+           str(out / "run.mcap"), "--report", str(out)]
+    return subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+                            stdin=subprocess.DEVNULL, text=True, env=env)
+
+
+def _values(path: Path, topic: str) -> list[float]:
+    """The recorded std_msgs/msg/Float64 values of a topic (CDR: a 4-byte header, the
+    double)."""
+    from mcap.reader import make_reader
+
+    with open(path, "rb") as f:
+        return [struct.unpack_from("<d", m.data, 4)[0]
+                for _, _, m in make_reader(f).iter_messages(topics=[topic])]
+
+
+def test_two_runners_on_two_hosts_exchange_topics_and_count_every_message(hosts, tmp_path):
+    (ns_a, _), (ns_b, link_b) = hosts
+    a = _launch(tmp_path, "a", 50.0, """
+  <node name="count" pkg="rtcf" type="rt_launcher" args="rtcf_examples Ramp">
+    <remap from="out" to="/hosts/seq"/>
+  </node>
+  <node name="heard" pkg="rtcf" type="rt_launcher" args="rtcf_examples Identity">
+    <remap from="in_port" to="/hosts/back"/><remap from="out_port" to="/heard"/>
+  </node>""")
+    b = _launch(tmp_path, "b", 200.0, """
+  <node name="echo" pkg="rtcf" type="rt_launcher" args="rtcf_examples Identity">
+    <remap from="in_port" to="/hosts/seq"/><remap from="out_port" to="/hosts/back"/>
+  </node>""")
+    out_a, out_b = tmp_path / "a", tmp_path / "b"
+    out_a.mkdir()
+    out_b.mkdir()
+    rx_before = _received_bytes(ns_b, link_b)
+    # B listens from before A starts until after A ends; A counts for 6 s at 50 Hz
+    proc_b = _start(ns_b, b, 12.0, out_b)
+    proc_a = _start(ns_a, a, 8.0, out_a)
+    try:
+        _, err_a = proc_a.communicate(timeout=120)
+        _, err_b = proc_b.communicate(timeout=120)
+    finally:
+        for p in (proc_a, proc_b):
+            p.kill()
+    assert proc_a.returncode == 0, err_a
+    assert proc_b.returncode == 0, err_b
+    sent = _values(out_a / "run.mcap", "/hosts/seq")
+    read_b = _values(out_b / "run.mcap", "/hosts/back")
+    heard_a = _values(out_a / "run.mcap", "/heard")
+    n = len(sent)
+    assert sent == [float(k) for k in range(1, n + 1)] and n > 300
+    # B's loop follows A's values: each one A sent, in order, up to A's last
+    assert read_b, f"host B read nothing of A's {n} numbers:\n{err_b}"
+    assert read_b == sorted(set(read_b)) and set(read_b) <= set(sent)
+    assert read_b[-1] == n  # B outlived A: it read the last number
+    inputs_b = json.loads((out_b / "timing.json").read_text())["inputs"]["/hosts/seq"]
+    # every message that arrived was read or replaced by a newer one: none uncounted
+    assert inputs_b["arrived"] == inputs_b["read"] + inputs_b["superseded"]
+    assert inputs_b["read"] == len(read_b)
+    # from B's first read on, every number A sent arrived (read, or counted replaced):
+    # DDS lost nothing on the link
+    missing = set(range(int(read_b[0]), n + 1)) - set(read_b)
+    assert len(missing) <= inputs_b["superseded"]
+    assert inputs_b["arrived"] >= n - read_b[0] + 1
+    # and back: A heard B's echo of its own numbers, in order
+    assert heard_a and heard_a == sorted(set(heard_a)) and set(heard_a) <= set(read_b)
+    inputs_a = json.loads((out_a / "timing.json").read_text())["inputs"]["/hosts/back"]
+    assert inputs_a["arrived"] >= inputs_a["read"] + inputs_a["superseded"]
+    assert inputs_a["read"] == len(heard_a)
+    # the messages went over the link (UDP), not through this machine's shared memory
+    assert _received_bytes(ns_b, link_b) - rx_before > 20 * n
