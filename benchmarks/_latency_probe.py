@@ -20,6 +20,7 @@ stderr if the system never answers.
 from __future__ import annotations
 
 import argparse
+import itertools
 import json
 import random
 import signal
@@ -61,11 +62,14 @@ def main() -> int:
     now = time.monotonic_ns
     sent: dict[int, int] = {}  # sequence number -> send time [ns]
     arrived: dict[int, int] = {}  # sequence number -> first arrival [ns]
-    state = {"seq": 0, "newest": 0, "outputs": 0, "stale": 0}
+    state = {"seq": 0, "newest": 0, "outputs": 0, "stale": 0, "measuring": 0}
+    every_arrival: list[int] = []  # of every output message while measuring [ns]
 
     def on_output(msg: Float64) -> None:
         t = now()
         state["outputs"] += 1
+        if state["measuring"]:
+            every_arrival.append(t)
         seq = int(msg.data)
         if seq > state["newest"]:
             state["newest"] = seq
@@ -125,7 +129,9 @@ def main() -> int:
         outputs0 = state["outputs"]
         print("probe: measuring", file=sys.stderr, flush=True)
         t0 = now()
+        state["measuring"] = 1
         spin_until(lambda: False, args.duration)
+        state["measuring"] = 0
         last = state["seq"]
         measured_ns = now() - t0
         print("probe: measured", file=sys.stderr, flush=True)
@@ -190,6 +196,12 @@ def main() -> int:
         "arrival_interval_us": arrival_us,
         "send_interval_us": send_us,
         "delay_variation_us": variation_us,
+        # intervals between every two output messages in a row (a periodic system
+        # publishes once per period: how far from it they arrive is what a subscriber
+        # sees of its timing)
+        "output_interval_us": [
+            (b - a) / 1e3 for a, b in itertools.pairwise(every_arrival)
+        ],
         "lost_next_sent_after_us": lost_gap_us,
         "lost_runs": [list(b) for b in bursts],
     }

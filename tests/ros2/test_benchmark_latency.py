@@ -36,6 +36,7 @@ def test_latency_benchmark_runs_quick_and_writes_both_systems():
     )
     assert result.returncode == 0, result.stdout + result.stderr
     assert "end-to-end latency [ms]" in result.stdout, result.stdout
+    assert "Goals (issue 22): rtcf's output period jitter p99 is " in result.stdout
     data = json.loads((ROOT / "benchmarks" / "results" / "ros2_latency-quick.json").read_text())
     assert data["ros_domain_id"] == conftest.DOMAIN
     systems = data["systems"]
@@ -50,8 +51,40 @@ def test_latency_benchmark_runs_quick_and_writes_both_systems():
     # rtcf maps only the whitelisted input and output; its internal topics stay inside
     assert systems["rtcf"]["graph_topics"] == ["/latency_rtcf/in", "/latency_rtcf/out"]
     assert len(systems["ros_timer"]["graph_topics"]) == 6  # in, out and four internal
+    # rtcf publishes once per period: the probe saw the intervals between its outputs
+    period = systems["rtcf"]["period_jitter_us"]
+    assert 0 <= period["p50"] <= period["p99"], period
+    assert set(data["goals"]["met"]) == {"jitter", "latency", "cpu", "lost"}
     loop = systems["rtcf"]["rtcf_loop"]
     assert loop["iterations"] > 0
     assert systems["rtcf"]["output_rate_hz"] > 0
     # --quick leaves the recorded results alone
     assert (ROOT / "docs" / "performance.md").read_text() == docs
+
+
+def _system(latency_p50, arrival_p99, period_p99=None, cpu=None, lost=0):
+    return {"latency_us": {"p50": latency_p50}, "arrival_jitter_us": {"p99": arrival_p99},
+            "period_jitter_us": {} if period_p99 is None else {"p99": period_p99},
+            "cpu_percent_by_process": cpu or {}, "lost": lost, "sent": 1000}
+
+
+def test_the_goals_are_computed_against_the_echo():
+    sys.path.insert(0, str(ROOT / "benchmarks"))
+    try:
+        import ros2_latency as bench
+    finally:
+        sys.path.remove(str(ROOT / "benchmarks"))
+    echo = _system(200.0, 500.0)
+    rtcf = _system(1350.0, 1800.0, 700.0, {"supervisor (ROS 2 bridge thread)": 20.0,
+                                            "worker": 1.0})
+    g = bench.goals({"rtcf": rtcf, "ros_echo": echo}, 500.0)
+    assert g["period_jitter_p99_ratio_to_echo"] == pytest.approx(1.4)
+    assert g["first_arrival_jitter_p99_ratio_to_echo"] == pytest.approx(3.6)
+    # the echo's p50 + half of a 2 ms period + 0.2 ms
+    assert g["latency_p50_bound_ms"] == pytest.approx(1.4)
+    assert g["supervisor_cpu_percent"] == 20.0  # the worker's share is not the supervisor's
+    assert g["met"] == {"jitter": True, "latency": True, "cpu": True, "lost": True}
+    worse = _system(1500.0, 1800.0, 800.0, {"supervisor": 30.0}, lost=2)
+    g = bench.goals({"rtcf": worse, "ros_echo": echo}, 500.0)
+    assert g["met"] == {"jitter": False, "latency": False, "cpu": False, "lost": False}
+    assert "1.60x the echo's arrival jitter p99 (≤ 1.5x: NOT met" in bench.goals_line(g)

@@ -1,11 +1,11 @@
 """Two runners on two "hosts": network namespaces joined by a veth pair, as two
 computers on one Ethernet link, talking ROS 2 over DDS (docs/ros2.md#several-machines).
 
-Each namespace has its loopback and its end of the link (10.231.N.1 and .2), and a
-multicast route for DDS discovery. Fast DDS is told to use UDP only
-(``FASTDDS_BUILTIN_TRANSPORTS=UDPv4``): between two real hosts there is no shared
-memory, and on this one it would otherwise carry the data past the link. Nothing
-leaves the namespaces: they have no other interface, no default route.
+The hosts are benchmarks/_hosts.py's: each namespace has its loopback and its end of
+the link, a multicast route for DDS discovery, and nothing else (no traffic leaves
+them). Fast DDS is told to use UDP only (``FASTDDS_BUILTIN_TRANSPORTS=UDPv4``): between
+two real hosts there is no shared memory, and on this one it would otherwise carry the
+data past the link.
 
 Host A counts (a Ramp publishes 1, 2, 3 ... on ``/hosts/seq``); host B echoes what
 it reads (an Identity to ``/hosts/back``); A reads the echo back. The checks use the
@@ -27,42 +27,20 @@ from .conftest import rtcf_env
 
 pytestmark = pytest.mark.integration
 
-SUBNET = f"10.231.{os.getpid() % 250}"
+sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
+import _hosts  # noqa: E402  (benchmarks/_hosts.py: ros2_latency.py --hosts 2 uses it too)
 
-
-def _ip(*args: str) -> None:
-    subprocess.run(["ip", *args], check=True, capture_output=True, text=True, timeout=30)
+sys.path.pop(0)
 
 
 @pytest.fixture
 def hosts():
     """Two network namespaces joined by a veth pair; removed afterwards."""
     if os.geteuid() != 0:
-        pytest.fail("test_several_hosts needs root (CAP_NET_ADMIN) to create network "
-                    "namespaces and a veth pair: run the ROS 2 suite as root, as CI does")
-    tag = os.getpid() % 100000
-    names = (f"rtcf_a{tag}", f"rtcf_b{tag}")
-    links = (f"rtcfa{tag}", f"rtcfb{tag}")
-    for ns in names:
-        _ip("netns", "add", ns)
-    try:
-        _ip("link", "add", links[0], "type", "veth", "peer", "name", links[1])
-        for k, (ns, link) in enumerate(zip(names, links, strict=True)):
-            _ip("link", "set", link, "netns", ns)
-            _ip("-n", ns, "addr", "add", f"{SUBNET}.{k + 1}/24", "dev", link)
-            _ip("-n", ns, "link", "set", "lo", "up")
-            _ip("-n", ns, "link", "set", link, "up")
-            _ip("-n", ns, "route", "add", "224.0.0.0/4", "dev", link)  # DDS discovery
-        yield list(zip(names, links, strict=True))
-    finally:
-        for ns in names:  # deleting a namespace deletes its end of the pair, and the pair
-            subprocess.run(["ip", "netns", "del", ns], capture_output=True, timeout=30)
-
-
-def _received_bytes(ns: str, link: str) -> int:
-    out = subprocess.run(["ip", "-n", ns, "-j", "-s", "link", "show", link],
-                         check=True, capture_output=True, text=True, timeout=30).stdout
-    return int(json.loads(out)[0]["stats64"]["rx"]["bytes"])
+        pytest.fail(f"test_several_hosts: {_hosts.NEEDS}: run the ROS 2 suite as root, "
+                    "as CI does")
+    with _hosts.two_hosts() as pair:
+        yield pair
 
 
 def _launch(tmp_path: Path, name: str, frequency: float, nodes: str) -> Path:
@@ -80,13 +58,13 @@ def _launch(tmp_path: Path, name: str, frequency: float, nodes: str) -> Path:
     return path
 
 
-def _start(ns: str, launch: Path, duration: float, out: Path) -> subprocess.Popen:
-    env = {**rtcf_env(), "FASTDDS_BUILTIN_TRANSPORTS": "UDPv4"}
+def _start(host, launch: Path, duration: float, out: Path) -> subprocess.Popen:
+    env = {**rtcf_env(), **_hosts.UDP_ONLY}
     env.pop("ROS_LOCALHOST_ONLY", None)
     env.pop("ROS_AUTOMATIC_DISCOVERY_RANGE", None)
-    cmd = ["ip", "netns", "exec", ns, sys.executable, "-m", "rtcf", "launch", str(launch),
-           "--middleware", "ros2", "--duration", str(duration), "--record",
-           str(out / "run.mcap"), "--report", str(out)]
+    cmd = host.command(sys.executable, "-m", "rtcf", "launch", str(launch), "--middleware",
+                       "ros2", "--duration", str(duration), "--record", str(out / "run.mcap"),
+                       "--report", str(out))
     return subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
                             stdin=subprocess.DEVNULL, text=True, env=env)
 
@@ -102,7 +80,7 @@ def _values(path: Path, topic: str) -> list[float]:
 
 
 def test_two_runners_on_two_hosts_exchange_topics_and_count_every_message(hosts, tmp_path):
-    (ns_a, _), (ns_b, link_b) = hosts
+    host_a, host_b = hosts
     a = _launch(tmp_path, "a", 50.0, """
   <node name="count" pkg="rtcf" type="rt_launcher" args="rtcf_examples Ramp">
     <remap from="out" to="/hosts/seq"/>
@@ -117,10 +95,10 @@ def test_two_runners_on_two_hosts_exchange_topics_and_count_every_message(hosts,
     out_a, out_b = tmp_path / "a", tmp_path / "b"
     out_a.mkdir()
     out_b.mkdir()
-    rx_before = _received_bytes(ns_b, link_b)
+    rx_before = host_b.received_bytes()
     # B listens from before A starts until after A ends; A counts for 6 s at 50 Hz
-    proc_b = _start(ns_b, b, 12.0, out_b)
-    proc_a = _start(ns_a, a, 8.0, out_a)
+    proc_b = _start(host_b, b, 12.0, out_b)
+    proc_a = _start(host_a, a, 8.0, out_a)
     try:
         _, err_a = proc_a.communicate(timeout=120)
         _, err_b = proc_b.communicate(timeout=120)
@@ -153,4 +131,4 @@ def test_two_runners_on_two_hosts_exchange_topics_and_count_every_message(hosts,
     assert inputs_a["arrived"] >= inputs_a["read"] + inputs_a["superseded"]
     assert inputs_a["read"] == len(heard_a)
     # the messages went over the link (UDP), not through this machine's shared memory
-    assert _received_bytes(ns_b, link_b) - rx_before > 20 * n
+    assert host_b.received_bytes() - rx_before > 20 * n

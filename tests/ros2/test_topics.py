@@ -203,3 +203,53 @@ def test_a_bad_qos_setting_is_a_clear_error(tmp_path):
     _, err = proc.communicate(timeout=60)
     assert proc.returncode != 0
     assert "ros_qos_reliability 'sometimes' is unknown; use reliable or best_effort" in err
+
+
+@pytest.mark.parametrize("bridge", ["timed", "plain"])
+def test_every_primitive_kind_crosses_both_ways(ros_node, tmp_path, monkeypatch, bridge):
+    """float, int, bool and str in and out, through the bridge's own CDR bytes (timed,
+    the default) and through message objects (plain): the same values either way,
+    also those CDR pads or escapes (a bool's padding, a string's length and NUL)."""
+    from std_msgs.msg import Bool, Int64, String
+
+    monkeypatch.setenv("RTCF_ROS2_BRIDGE", bridge)
+    kinds = {"float": (Float64, [2.5, -0.0, 1e300]), "int": (Int64, [-(2**63), 7, 2**63 - 1]),
+             "bool": (Bool, [True, False, True]), "str": (String, ["grüße", "", "x" * 300])}
+    nodes = "\n".join(
+        f'  <node name="{k}" pkg="rtcf" type="rt_launcher" args="rtcf_examples Identity">'
+        f'<remap from="in_port" to="/ros/{k}_in"/><remap from="out_port" to="/ros/{k}_out"/>'
+        f'<param name="msg_type" value="{k}"/></node>'
+        for k in kinds
+    )
+    path = tmp_path / "kinds.launch"
+    path.write_text(f"""<launch>
+  <node name="rt_runner" pkg="rtcf" type="rt_runner">
+    <param name="mode" value="no_wait"/><param name="frequency" value="200.0"/>
+    <param name="ros_mapping_whitelist" value="/ros/.*"/>
+  </node>
+{nodes}
+</launch>
+""")
+    proc = start_rtcf("launch", path, "--middleware", "ros2")
+    try:
+        wait_running(proc)
+        got = {k: [] for k in kinds}
+        pubs = {}
+        for k, (cls, _) in kinds.items():
+            ros_node.create_subscription(cls, f"/ros/{k}_out",
+                                         lambda m, k=k: got[k].append(m.data), 10)
+            pubs[k] = ros_node.create_publisher(cls, f"/ros/{k}_in", 10)
+        assert spin_until(ros_node, lambda: all(
+            ros_node.count_publishers(f"/ros/{k}_out") and
+            ros_node.count_subscribers(f"/ros/{k}_in") for k in kinds))
+        for k, (cls, values) in kinds.items():
+            for value in values:
+                got[k].clear()
+                assert spin_until(
+                    ros_node, lambda k=k, v=value: bool(got[k]) and got[k][-1] == v,
+                    publish=lambda k=k, cls=cls, v=value: pubs[k].publish(cls(data=v)),
+                ), f"{bridge}: {k} {value!r} did not come back (last: {got[k][-3:]})"
+    finally:
+        if proc.poll() is None:
+            _, err = stop(proc)
+            assert "error" not in err.lower(), err

@@ -23,7 +23,9 @@ so that 2 kHz of it costs the supervisor little.
 from __future__ import annotations
 
 import json
+import os
 import struct
+import sys
 import threading
 import time
 from collections.abc import Callable, Mapping
@@ -51,6 +53,7 @@ if TYPE_CHECKING:
     from .._runtime._supervisor import LiveStatus, WorkerRunner
 
 SPIN_TIMEOUT_S = 0.05  # how often the executor thread looks whether to end
+SWITCH_INTERVAL_S = 0.0002  # the supervisor's GIL turn with the timed bridge
 
 
 
@@ -74,6 +77,70 @@ def message_class(port: MappedPort) -> type:
         raise RtcfError(
             f"topic {port.topic}: {exc}; install its package (e.g. pip install ros-jazzy-std-msgs)"
         ) from None
+
+
+# Primitive kinds cross as CDR bytes made here, without a message object: the
+# encapsulation header (little-endian CDR), then the codec's own little-endian bytes
+# (float64, int64, a bool's byte), or a string's length (with its NUL) and bytes. Checked
+# against rclpy's serialization by a round trip when a run's channels open.
+_CDR_LE = b"\x00\x01\x00\x00"
+_U32 = struct.Struct("<I")
+
+
+def _cdr_encoder(kind: str) -> Callable[[bytes], bytes] | None:
+    """The codec's payload as the CDR bytes of its std_msgs message, or None."""
+    if kind in ("float", "int"):
+        return lambda payload: _CDR_LE + payload
+    if kind == "bool":
+        return lambda payload: _CDR_LE + payload + b"\x00\x00\x00"
+    if kind == "str":
+        return lambda payload: _CDR_LE + _U32.pack(len(payload) + 1) + payload + b"\x00"
+    return None
+
+
+def _cdr_decoder(kind: str, cls: type) -> Callable[[bytes], bytes] | None:
+    """The CDR bytes of a raw subscription as the codec's payload, or None (a message
+    from a big-endian publisher goes through rclpy's deserialization)."""
+    from rclpy.serialization import deserialize_message
+
+    def slow(data: bytes) -> bytes:
+        return _from_message(kind, deserialize_message(data, cls))
+
+    if kind in ("float", "int"):
+        def fixed(data: bytes) -> bytes:
+            return data[4:12] if data[:2] == b"\x00\x01" else slow(data)
+        return fixed
+    if kind == "bool":
+        def one(data: bytes) -> bytes:
+            return data[4:5] if data[:2] == b"\x00\x01" else slow(data)
+        return one
+    if kind == "str":
+        def text(data: bytes) -> bytes:
+            if data[:2] != b"\x00\x01":
+                return slow(data)
+            n = _U32.unpack_from(data, 4)[0]
+            return data[8 : 8 + max(0, n - 1)]
+        return text
+    return None
+
+
+def _check_cdr(kind: str, cls: type) -> None:
+    """Our CDR bytes and rclpy's agree for this kind (a changed serialization would
+    otherwise publish garbage)."""
+    from rclpy.serialization import deserialize_message, serialize_message
+
+    samples = {"float": [b"\x00\x00\x00\x00\x00\x00\xf8\x3f"],
+               "int": [struct.pack("<q", -2)], "bool": [b"\x01", b"\x00"],
+               "str": ["grüße".encode(), b""]}[kind]
+    encode, decode = _cdr_encoder(kind), _cdr_decoder(kind, cls)
+    assert encode is not None and decode is not None
+    for payload in samples:
+        ours = encode(payload)
+        theirs = serialize_message(_to_message(kind, cls, payload))
+        if _from_message(kind, deserialize_message(ours, cls)) != payload or (
+            decode(theirs) != payload
+        ):
+            raise RtcfError(f"the bridge's CDR bytes for {kind} do not round-trip with rclpy's")
 
 
 def _to_message(kind: str, cls: type, payload: bytes) -> Any:
@@ -153,6 +220,17 @@ class Ros2Bridge:
         self._info_offset = 0
         self._introspect_srv: Any = None
         self._running = True
+        # how outputs reach ROS (docs/performance.md#what-ros-sees): "timed" (CDR bytes
+        # made here, the publishing thread at SCHED_FIFO below the loop, short GIL
+        # turns) or "plain" (message objects, SCHED_OTHER: the way before, for
+        # comparison); RTCF_ROS2_BRIDGE picks
+        self.mode = os.environ.get("RTCF_ROS2_BRIDGE", "timed")
+        if self.mode not in ("timed", "plain"):
+            raise RtcfError(f"RTCF_ROS2_BRIDGE={self.mode!r}: use timed or plain")
+        self._cdr = self.mode == "timed"
+        self._cdr_checked: set[str] = set()
+        self._publish_priority = 0  # SCHED_FIFO priority of the publishing thread (0: none)
+        self.publisher_scheduling = "SCHED_OTHER"  # what it got
         self.doorbell = Doorbell.create()
         # two threads: one spins the executor (subscriptions, services, parameters),
         # one sleeps on the doorbell and publishes what the worker's outputs pushed
@@ -190,6 +268,11 @@ class Ros2Bridge:
             else DurabilityPolicy.VOLATILE,
         )
         self._use_sim_time = settings.use_sim_time
+        if self.mode == "timed":
+            self._publish_priority = max(1, settings.priority - 10)
+            # a thread waiting for the GIL asks for it after this long (5 ms by default):
+            # the publishing thread's wait behind rclpy's executor and the drains
+            sys.setswitchinterval(SWITCH_INTERVAL_S)
         # the rows hold CLOCK_MONOTONIC ns (or /clock ns); stamps are ROS time. Taken
         # once, so that stamps are exactly one period apart
         self._info_offset = 0
@@ -222,35 +305,44 @@ class Ros2Bridge:
             for port in ports:
                 cls = message_class(port)
                 channel = channels[port.topic]
+                cdr = self._cdr and _cdr_encoder(port.kind) is not None
+                if cdr and port.kind not in self._cdr_checked:
+                    _check_cdr(port.kind, cls)
+                    self._cdr_checked.add(port.kind)
                 if port.direction == "output":
                     assert isinstance(channel, Ring)
                     pub = self.node.create_publisher(cls, port.topic, self._qos)
                     self._publishers.append(pub)
                     kind = port.kind
-
-                    def convert(payload: bytes, kind: str = kind, cls: type = cls) -> Any:
-                        return _to_message(kind, cls, payload)
+                    encoder = _cdr_encoder(kind) if cdr else None
+                    if encoder is not None:  # bytes: rclpy publishes them as they are
+                        convert: Callable[[bytes], Any] = encoder
+                    else:
+                        def convert(payload: bytes, kind: str = kind, cls: type = cls) -> Any:
+                            return _to_message(kind, cls, payload)
 
                     self._outputs.append((channel, pub, convert))
                 else:
                     assert isinstance(channel, Mailbox | MailboxFanOut)
+                    decoder = _cdr_decoder(port.kind, cls) if cdr else None
                     self._subscriptions.append(
                         self.node.create_subscription(
                             cls,
                             port.topic,
-                            self._feeder(port, channel),
+                            self._feeder(port, channel, decoder),
                             self._qos,
-                            raw=port.kind == "ros2",
+                            raw=port.kind == "ros2" or decoder is not None,
                         )
                     )
 
     def _feeder(
-        self, port: MappedPort, box: Mailbox | MailboxFanOut
+        self, port: MappedPort, box: Mailbox | MailboxFanOut,
+        decoder: Callable[[bytes], bytes] | None = None,
     ) -> Callable[[Any], None]:
         kind = port.kind
 
         def on_message(msg: Any) -> None:
-            payload = _from_message(kind, msg)
+            payload = decoder(msg) if decoder is not None else _from_message(kind, msg)
             with self._lock:  # the run may have closed its channels meanwhile
                 if self._open and len(payload) <= box.size:
                     box.write(payload)
@@ -373,7 +465,11 @@ class Ros2Bridge:
     def _publish(self) -> None:
         # the lock guards the run's channels only: a service callback may wait in
         # spin_once for the main thread, which needs the lock to close the run
+        applied = 0
         while self._running:
+            if self._publish_priority != applied:
+                applied = self._publish_priority
+                self.publisher_scheduling = _fifo_this_thread(applied)
             self.doorbell.wait(SPIN_TIMEOUT_S)
             with self._lock:
                 self._drain()
@@ -401,6 +497,16 @@ class Ros2Bridge:
         self.node.destroy_node()
         if self._owns_context:
             self._rclpy.shutdown(context=self.context)
+
+
+def _fifo_this_thread(priority: int) -> str:
+    """SCHED_FIFO at ``priority`` for the calling thread (Linux: pid 0 is the thread);
+    what it got, for the report."""
+    try:
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(priority))
+    except (OSError, AttributeError) as exc:  # no CAP_SYS_NICE, or not Linux
+        return f"SCHED_OTHER (SCHED_FIFO {priority} refused: {exc})"
+    return f"SCHED_FIFO {priority}"
 
 
 _FOUR_DOUBLES = struct.Struct("<4d")  # the template's data, cut off for the prefix
@@ -445,7 +551,6 @@ def _rosout_qos() -> Any:
 def fetch_introspection(runner: str, timeout_s: float = 10.0) -> dict[str, Any]:
     """Ask a running runner (``rtcf launch --middleware ros2`` or rt_runner) what it holds."""
     rclpy = _import_rclpy()
-    import os
 
     from rclpy.node import Node
     from std_srvs.srv import Trigger
