@@ -238,6 +238,17 @@ def sched_of(pid: int) -> str:
     return f"{name}{f' {prio}' if prio else ''}, {where}"
 
 
+def fifo_threads(pid: int) -> str:
+    """The SCHED_FIFO threads of a process (the bridge's publishing thread), or none."""
+    found = []
+    with contextlib.suppress(OSError):
+        for task in Path(f"/proc/{pid}/task").iterdir():
+            with contextlib.suppress(OSError):
+                if os.sched_getscheduler(int(task.name)) == os.SCHED_FIFO:
+                    found.append(f"SCHED_FIFO {os.sched_getparam(int(task.name)).sched_priority}")
+    return ", ".join(found) or "none at SCHED_FIFO"
+
+
 # -- the systems ----------------------------------------------------------------------
 
 
@@ -369,6 +380,9 @@ def run_round(
         cpu0, t0 = cpu_now(), time.monotonic()
         result["scheduling"] = {k: sched_of(v[0]) if v else "gone" for k, v in procs.items()}
         result["scheduling"]["probe"] = sched_of(probe.pid)
+        if system == "rtcf":  # the bridge's publishing and taking threads (timed: FIFO)
+            result["scheduling"]["publishing thread"] = fifo_threads(procs[
+                "supervisor (ROS 2 bridge thread)"][0])
         probe.wait_for("probe: measured", args.part + 60)
         cpu1, t1 = cpu_now(), time.monotonic()
         result["cpu_percent_of_one_core"] = {
@@ -593,7 +607,9 @@ def conditions_line(merged: dict[str, dict[str, Any]], wrapper: Sequence[str]) -
     ros = merged["ros_timer"]["scheduling"]
     return (
         f"{loop}; rtcf's supervisor, which holds the ROS 2 bridge thread: "
-        f"{sched.get('supervisor (ROS 2 bridge thread)')}; the ROS-only nodes: "
+        f"{sched.get('supervisor (ROS 2 bridge thread)')}, its threads that publish and "
+        f"take messages {sched.get('publishing thread', '?')} (bridge "
+        f"{os.environ.get('RTCF_ROS2_BRIDGE', 'timed')}); the ROS-only nodes: "
         f"{ros.get('H1')}; the probe: {ros.get('probe')}"
     )
 
@@ -634,8 +650,8 @@ def main() -> int:
         choices=(1, 2),
         default=1,
         help="2: the systems on one host and the probe on another, two network namespaces "
-        "joined by a veth pair, DDS over UDP (needs root); results to "
-        "results/ros2_latency-2hosts.json, the docs' table is left alone",
+        "joined by a veth pair, DDS over UDP (needs root); results and docs section "
+        "ros2_latency-2hosts",
     )
     args = p.parse_args()
     require_ros2()
@@ -705,6 +721,7 @@ def main() -> int:
         "load_avg_after": load_after,
         "cpu_dma_latency_zero": held,
         "rt_wrapper": " ".join(wrapper) or None,
+        "ros2_bridge": os.environ.get("RTCF_ROS2_BRIDGE", "timed"),
         "conditions": conditions,
         "goals": goal,
         "systems": merged,
@@ -718,15 +735,18 @@ def main() -> int:
         },
         "elapsed_s": elapsed,
     }
-    # the docs hold the default rates; others are written beside, docs left alone
-    default = args.frequency == FREQUENCY and args.rate == RATE and args.hosts == 1
+    # the docs hold the default rates (each way of running in a section of its own);
+    # other rates are written beside, docs left alone
+    default = args.frequency == FREQUENCY and args.rate == RATE
     name = NAME if default else f"{NAME}-{args.frequency:g}hz-{args.rate:g}hz"
     if args.hosts == 2:
-        name = f"{NAME}-2hosts"
-        data["hosts"] = 2
+        name += "-2hosts"
+    if data["ros2_bridge"] != "timed":
+        name += f"-{data['ros2_bridge']}-bridge"
+    data["hosts"] = args.hosts
     path = c.write_results(name, data, args.quick)
     print(f"wrote {path.relative_to(c.REPO)}")
-    if not args.quick and (default or args.hosts == 2):
+    if not args.quick and default:
         where = (
             "**Across two hosts**: every system in one network namespace, the probe in "
             "another, joined by a veth pair, DDS over UDP (`--hosts 2`). " if args.hosts == 2

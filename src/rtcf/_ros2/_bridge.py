@@ -48,6 +48,7 @@ from .._runtime._doorbell import ClockFeed, Doorbell
 from .._runtime._health import health
 from .._runtime._port_channels import MailboxFanOut, MappedPort, read_record
 from ._face import ComponentFace, read_only, ros_logger_name, ros_value
+from ._inputs import DirectInputs
 
 if TYPE_CHECKING:
     from .._runtime._supervisor import LiveStatus, WorkerRunner
@@ -230,6 +231,7 @@ class Ros2Bridge:
         self._cdr = self.mode == "timed"
         self._cdr_checked: set[str] = set()
         self._publish_priority = 0  # SCHED_FIFO priority of the publishing thread (0: none)
+        self._direct: DirectInputs | None = None  # timed: mapped inputs without the executor
         self.publisher_scheduling = "SCHED_OTHER"  # what it got
         self.doorbell = Doorbell.create()
         # two threads: one spins the executor (subscriptions, services, parameters),
@@ -270,6 +272,9 @@ class Ros2Bridge:
         self._use_sim_time = settings.use_sim_time
         if self.mode == "timed":
             self._publish_priority = max(1, settings.priority - 10)
+            if self._direct is None:
+                priority = self._publish_priority
+                self._direct = DirectInputs(self.node, lambda: _fifo_this_thread(priority))
             # a thread waiting for the GIL asks for it after this long (5 ms by default):
             # the publishing thread's wait behind rclpy's executor and the drains
             sys.setswitchinterval(SWITCH_INTERVAL_S)
@@ -325,14 +330,13 @@ class Ros2Bridge:
                 else:
                     assert isinstance(channel, Mailbox | MailboxFanOut)
                     decoder = _cdr_decoder(port.kind, cls) if cdr else None
+                    raw = port.kind == "ros2" or decoder is not None
+                    feed = self._feeder(port, channel, decoder)
+                    if self._direct is not None and raw:  # taken by a thread of its own
+                        self._direct.add(cls, port.topic, self._qos, feed)
+                        continue
                     self._subscriptions.append(
-                        self.node.create_subscription(
-                            cls,
-                            port.topic,
-                            self._feeder(port, channel, decoder),
-                            self._qos,
-                            raw=port.kind == "ros2" or decoder is not None,
-                        )
+                        self.node.create_subscription(cls, port.topic, feed, self._qos, raw=raw)
                     )
 
     def _feeder(
@@ -448,6 +452,8 @@ class Ros2Bridge:
                 self.node.destroy_publisher(pub)
             for sub in self._subscriptions:
                 self.node.destroy_subscription(sub)
+            if self._direct is not None:
+                self._direct.clear()
             self._outputs.clear()
             self._publishers.clear()
             self._subscriptions.clear()
@@ -488,6 +494,8 @@ class Ros2Bridge:
         self._running = False
         self._thread.join(timeout=5.0)
         self._publisher.join(timeout=5.0)
+        if self._direct is not None:
+            self._direct.close()
         self.doorbell.close()
         self.executor.shutdown()
         for face in self._faces.values():

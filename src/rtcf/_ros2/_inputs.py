@@ -1,0 +1,117 @@
+"""Mapped inputs taken from DDS by a thread of their own, without rclpy's executor.
+
+rclpy's executor rebuilds its wait set in Python from every entity of every node it
+spins, each time it waits: the runner's node and each component's node, with their
+parameter, logger and lifecycle services, some sixty entities. Taking one message
+that way costs about a millisecond of the supervisor's CPU, and the message waits
+for the executor's other work. Here the subscriptions of the mapped inputs are made on
+the runner's node (the graph shows them as its own, as before) but are not registered
+with the node, so no executor sees them: one thread waits on a wait set that holds only
+them, takes each message as bytes (raw) and hands the bytes to the run's mailbox. It
+runs at the publishing thread's SCHED_FIFO priority, on the supervisor's CPU.
+
+This uses the layer under rclpy's Node and Executor (``rclpy_implementation``: the
+``Subscription``, ``WaitSet`` and ``GuardCondition`` that those are made of), as
+rclpy's own executors do.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import threading
+from collections.abc import Callable
+from typing import Any
+
+WAIT_NS = 50_000_000  # how often the thread looks whether to end, at the latest
+
+
+class DirectInputs:
+    """The mapped inputs' subscriptions of one node, and the thread that takes them."""
+
+    def __init__(self, node: Any, scheduling: Callable[[], object] | None = None) -> None:
+        from rclpy.impl.implementation_singleton import rclpy_implementation as _rclpy
+
+        self._rclpy = _rclpy
+        self._node = node
+        self._context = node.context
+        self._lock = threading.Lock()
+        # (subscription handle, message class, callback taking the raw bytes)
+        self._subs: list[tuple[Any, type, Callable[[bytes], None]]] = []
+        self._generation = 0
+        with self._context.handle:
+            self._wake = _rclpy.GuardCondition(self._context.handle)
+        self._scheduling = scheduling  # applied first thing in the thread
+        self._running = True
+        self._thread = threading.Thread(target=self._take, name="rtcf-ros2-take", daemon=True)
+        self._thread.start()
+
+    def add(self, cls: type, topic: str, qos: Any, on_bytes: Callable[[bytes], None]) -> None:
+        """Subscribe ``topic`` (raw) on the node; each message's bytes go to ``on_bytes``."""
+        from rclpy.type_support import check_is_valid_msg_type
+
+        check_is_valid_msg_type(cls)
+        with self._node.handle:
+            handle = self._rclpy.Subscription(
+                self._node.handle, cls, topic, qos.get_c_qos_profile()
+            )
+        with self._lock:
+            self._subs.append((handle, cls, on_bytes))
+            self._generation += 1
+        self._wake.trigger_guard_condition()
+
+    def clear(self) -> None:
+        """Unsubscribe all (destroyed once the thread no longer waits on them)."""
+        with self._lock:
+            subs, self._subs = self._subs, []
+            self._generation += 1
+        self._wake.trigger_guard_condition()
+        for handle, _, _ in subs:
+            handle.destroy_when_not_in_use()
+
+    def close(self) -> None:
+        self._running = False
+        with contextlib.suppress(Exception):
+            self._wake.trigger_guard_condition()
+        self._thread.join(timeout=5.0)
+        self.clear()
+        self._wake.destroy_when_not_in_use()
+
+    def _take(self) -> None:
+        from rclpy.exceptions import InvalidHandle
+
+        if self._scheduling is not None:
+            self._scheduling()
+        rclpy = self._rclpy
+        generation = -1
+        subs: list[tuple[Any, type, Callable[[bytes], None]]] = []
+        wait_set = None
+        while self._running:
+            with self._lock:
+                if generation != self._generation:
+                    generation, subs = self._generation, list(self._subs)
+                    wait_set = None
+            try:
+                with contextlib.ExitStack() as stack:
+                    stack.enter_context(self._context.handle)
+                    for handle, _, _ in subs:
+                        stack.enter_context(handle)
+                    stack.enter_context(self._wake)
+                    if wait_set is None:
+                        wait_set = rclpy.WaitSet(len(subs), 1, 0, 0, 0, 0, self._context.handle)
+                    wait_set.clear_entities()
+                    for handle, _, _ in subs:
+                        wait_set.add_subscription(handle)
+                    wait_set.add_guard_condition(self._wake)
+                    wait_set.wait(WAIT_NS)
+                    ready = wait_set.get_ready_entities("subscription")
+                    for handle, cls, on_bytes in subs:
+                        if handle.pointer not in ready:
+                            continue
+                        while (taken := handle.take_message(cls, True)) is not None:
+                            on_bytes(taken[0])
+            except InvalidHandle:  # destroyed meanwhile (a run closed): look again
+                generation = -1
+            except Exception:
+                if not self._running or not self._context.ok():  # shutting down
+                    return
+                raise
