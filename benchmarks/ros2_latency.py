@@ -582,7 +582,8 @@ def periods_line(merged: dict[str, dict[str, Any]], frequency: float) -> str:
         f"ROS-only with timers {p50['ros_timer'] / period_ms:.2f} T, subscription-driven "
         f"{p50['ros_event'] / period_ms:.2f} T. The echo's median plus half a period (the "
         f"mean wait for rtcf's next iteration) is {floor:.2f} ms; rtcf's median is "
-        f"{p50['rtcf'] - floor:.2f} ms above that."
+        f"{abs(p50['rtcf'] - floor):.2f} ms {'above' if p50['rtcf'] >= floor else 'below'} "
+        "that."
     )
 
 

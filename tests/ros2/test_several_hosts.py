@@ -7,11 +7,13 @@ them). Fast DDS is told to use UDP only (``FASTDDS_BUILTIN_TRANSPORTS=UDPv4``): 
 two real hosts there is no shared memory, and on this one it would otherwise carry the
 data past the link.
 
-Host A counts (a Ramp publishes 1, 2, 3 ... on ``/hosts/seq``); host B echoes what
-it reads (an Identity to ``/hosts/back``); A reads the echo back. The checks use the
-sequence numbers, not a timing bound: every number B read is one A sent, in order;
-every number from B's first read on was read or counted as replaced by a newer one;
-nothing arrived that is not counted; the traffic crossed the link.
+Fig. 1 split across them by mapped topics, its stages carrying a sequence number
+(benchmarks/_latency_components.Stage: each writes the smallest of its forward
+inputs): host A counts (a Ramp) into H1, F1 and R1; host B runs R2 and R3, and R3's
+output loops back into A's H1. The checks use the sequence numbers, not a timing bound:
+each topic that crosses is read in order, every number from the first read on was read
+or counted as replaced by a newer one, every message that arrived is counted, and the
+traffic went over the link.
 """
 
 import json
@@ -27,7 +29,8 @@ from .conftest import rtcf_env
 
 pytestmark = pytest.mark.integration
 
-sys.path.insert(0, str(Path(__file__).resolve().parents[2] / "benchmarks"))
+BENCHMARKS = Path(__file__).resolve().parents[2] / "benchmarks"
+sys.path.insert(0, str(BENCHMARKS))
 import _hosts  # noqa: E402  (benchmarks/_hosts.py: ros2_latency.py --hosts 2 uses it too)
 
 sys.path.pop(0)
@@ -58,8 +61,16 @@ def _launch(tmp_path: Path, name: str, frequency: float, nodes: str) -> Path:
     return path
 
 
+def _stage(name: str, out: str, *inputs: str, fb: str = "") -> str:
+    remaps = "".join(f'<remap from="in{k}" to="{t}"/>' for k, t in enumerate(inputs, 1))
+    remaps += f'<remap from="fb1" to="{fb}"/>' if fb else ""
+    return (f'  <node name="{name}" pkg="rtcf" type="rt_launcher" '
+            f'args="_latency_components Stage">{remaps}<remap from="out" to="{out}"/></node>')
+
+
 def _start(host, launch: Path, duration: float, out: Path) -> subprocess.Popen:
     env = {**rtcf_env(), **_hosts.UDP_ONLY}
+    env["PYTHONPATH"] += os.pathsep + str(BENCHMARKS)  # the Stage component
     env.pop("ROS_LOCALHOST_ONLY", None)
     env.pop("ROS_AUTOMATIC_DISCOVERY_RANGE", None)
     cmd = host.command(sys.executable, "-m", "rtcf", "launch", str(launch), "--middleware",
@@ -70,34 +81,53 @@ def _start(host, launch: Path, duration: float, out: Path) -> subprocess.Popen:
 
 
 def _values(path: Path, topic: str) -> list[float]:
-    """The recorded std_msgs/msg/Float64 values of a topic (CDR: a 4-byte header, the
-    double)."""
+    """The distinct values a recorded std_msgs/msg/Float64 topic took, in order (CDR: a
+    4-byte header, the double)."""
     from mcap.reader import make_reader
 
+    out: list[float] = []
     with open(path, "rb") as f:
-        return [struct.unpack_from("<d", m.data, 4)[0]
-                for _, _, m in make_reader(f).iter_messages(topics=[topic])]
+        for _, _, m in make_reader(f).iter_messages(topics=[topic]):
+            v = struct.unpack_from("<d", m.data, 4)[0]
+            if not out or v != out[-1]:
+                out.append(v)
+    return out
 
 
-def test_two_runners_on_two_hosts_exchange_topics_and_count_every_message(hosts, tmp_path):
+def _assert_followed(topic: str, read: list[float], n: int, counts: dict[str, int]) -> None:
+    """A crossing topic as its reader's loop saw it, against the n numbers sent."""
+    assert read, f"{topic}: nothing read"
+    assert read == sorted(set(read)) and set(read) <= {float(k) for k in range(1, n + 1)}, topic
+    assert read[-1] == n, topic  # the reader outlived the sender: it read the last one
+    # every message that arrived was read or replaced by a newer one: none uncounted
+    assert counts["arrived"] == counts["read"] + counts["superseded"], (topic, counts)
+    # from the first read on, every number sent arrived (DDS lost nothing on the link)
+    missing = set(range(int(read[0]), n + 1)) - set(read)
+    assert len(missing) <= counts["superseded"], (topic, len(missing), counts)
+    assert counts["arrived"] >= n - read[0] + 1, (topic, counts)
+
+
+def test_fig1_split_across_two_hosts_follows_the_sequence_and_counts_every_message(
+    hosts, tmp_path
+):
     host_a, host_b = hosts
-    a = _launch(tmp_path, "a", 50.0, """
-  <node name="count" pkg="rtcf" type="rt_launcher" args="rtcf_examples Ramp">
-    <remap from="out" to="/hosts/seq"/>
-  </node>
-  <node name="heard" pkg="rtcf" type="rt_launcher" args="rtcf_examples Identity">
-    <remap from="in_port" to="/hosts/back"/><remap from="out_port" to="/heard"/>
-  </node>""")
-    b = _launch(tmp_path, "b", 200.0, """
-  <node name="echo" pkg="rtcf" type="rt_launcher" args="rtcf_examples Identity">
-    <remap from="in_port" to="/hosts/seq"/><remap from="out_port" to="/hosts/back"/>
-  </node>""")
+    a = _launch(tmp_path, "a", 50.0, "\n".join([
+        '  <node name="count" pkg="rtcf" type="rt_launcher" args="rtcf_examples Ramp">'
+        '<remap from="out" to="/fig/in"/></node>',
+        _stage("H1", "/hosts/H1", "/fig/in", fb="/hosts/R3"),  # (the loop via B)
+        _stage("F1", "/hosts/F1", "/hosts/H1"),
+        _stage("R1", "/hosts/R1", "/hosts/H1"),
+    ]))
+    b = _launch(tmp_path, "b", 200.0, "\n".join([
+        _stage("R2", "/fig/R2", "/hosts/F1", "/hosts/H1", "/hosts/R1"),
+        _stage("R3", "/hosts/R3", "/hosts/F1", "/fig/R2"),
+    ]))
     out_a, out_b = tmp_path / "a", tmp_path / "b"
     out_a.mkdir()
     out_b.mkdir()
     rx_before = host_b.received_bytes()
-    # B listens from before A starts until after A ends; A counts for 6 s at 50 Hz
-    proc_b = _start(host_b, b, 12.0, out_b)
+    # B listens from before A starts until after A ends; A counts for 8 s at 50 Hz
+    proc_b = _start(host_b, b, 14.0, out_b)
     proc_a = _start(host_a, a, 8.0, out_a)
     try:
         _, err_a = proc_a.communicate(timeout=120)
@@ -107,28 +137,21 @@ def test_two_runners_on_two_hosts_exchange_topics_and_count_every_message(hosts,
             p.kill()
     assert proc_a.returncode == 0, err_a
     assert proc_b.returncode == 0, err_b
-    sent = _values(out_a / "run.mcap", "/hosts/seq")
-    read_b = _values(out_b / "run.mcap", "/hosts/back")
-    heard_a = _values(out_a / "run.mcap", "/heard")
+    sent = _values(out_a / "run.mcap", "/fig/in")
     n = len(sent)
     assert sent == [float(k) for k in range(1, n + 1)] and n > 300
-    # B's loop follows A's values: each one A sent, in order, up to A's last
-    assert read_b, f"host B read nothing of A's {n} numbers:\n{err_b}"
-    assert read_b == sorted(set(read_b)) and set(read_b) <= set(sent)
-    assert read_b[-1] == n  # B outlived A: it read the last number
-    inputs_b = json.loads((out_b / "timing.json").read_text())["inputs"]["/hosts/seq"]
-    # every message that arrived was read or replaced by a newer one: none uncounted
-    assert inputs_b["arrived"] == inputs_b["read"] + inputs_b["superseded"]
-    assert inputs_b["read"] == len(read_b)
-    # from B's first read on, every number A sent arrived (read, or counted replaced):
-    # DDS lost nothing on the link
-    missing = set(range(int(read_b[0]), n + 1)) - set(read_b)
-    assert len(missing) <= inputs_b["superseded"]
-    assert inputs_b["arrived"] >= n - read_b[0] + 1
-    # and back: A heard B's echo of its own numbers, in order
-    assert heard_a and heard_a == sorted(set(heard_a)) and set(heard_a) <= set(read_b)
-    inputs_a = json.loads((out_a / "timing.json").read_text())["inputs"]["/hosts/back"]
-    assert inputs_a["arrived"] >= inputs_a["read"] + inputs_a["superseded"]
-    assert inputs_a["read"] == len(heard_a)
+    inputs_b = json.loads((out_b / "timing.json").read_text())["inputs"]
+    assert set(inputs_b) == {"/hosts/F1", "/hosts/H1", "/hosts/R1"}
+    for topic, counts in inputs_b.items():  # A's stages, as B's loop read them
+        _assert_followed(topic, _values(out_b / "run.mcap", topic), n, counts)
+    # B's loop follows A's values: R3, the smallest of F1 and R2, is A's sequence
+    r3 = _values(out_b / "run.mcap", "/hosts/R3")
+    assert r3 == sorted(set(r3)) and r3[-1] == n
+    # and back: A's H1 read R3 from B (Fig. 1's loop), in order
+    back = _values(out_a / "run.mcap", "/hosts/R3")
+    counts = json.loads((out_a / "timing.json").read_text())["inputs"]["/hosts/R3"]
+    assert back and back == sorted(set(back)) and set(back) <= set(r3)
+    assert counts["arrived"] >= counts["read"] + counts["superseded"]
+    assert counts["read"] >= len(back)
     # the messages went over the link (UDP), not through this machine's shared memory
-    assert host_b.received_bytes() - rx_before > 20 * n
+    assert host_b.received_bytes() - rx_before > 3 * 20 * n

@@ -214,3 +214,46 @@ def test_summary_us_keys_and_values(data: npt.NDArray[np.int64]) -> None:
     assert s["mean"] == pytest.approx(data.mean() / 1e3)
     assert 2.9 < s["p50"] < 3.1
     assert s["min"] <= s["p50"] <= s["p90"] <= s["p99"] <= s["p999"] <= s["max"]
+
+
+@pytest.mark.parametrize("rows", [3, 5000])  # counted in place, and by one bincount
+def test_columns_counted_as_one_block_equal_one_histogram_per_column(rows):
+    from rtcf._core._histogram import HistogramColumns
+
+    rng = np.random.default_rng(7)
+    values = rng.integers(0, 3_000_000, size=(rows, 4), dtype=np.int64)
+    values[::3, 1] = -1  # a component that did not run in every third iteration
+    values[:, 3] = -1  # one that never ran
+    alone = [LogHistogram() for _ in range(4)]
+    for k, hist in enumerate(alone):
+        col = values[:, k]
+        hist.add(col[col >= 0])
+    together = [LogHistogram() for _ in range(4)]
+    together[0].add([5, 6])  # counted before the block took the counters over
+    alone[0].add([5, 6])
+    columns = HistogramColumns(together)
+    columns.add(values[: rows // 2])
+    columns.add(values[rows // 2 :])
+    for a, b in zip(alone, together, strict=True):
+        assert (a.count, a.min, a.max, a.sum) == (b.count, b.min, b.max, b.sum)
+        assert np.array_equal(a.counts, b.counts)
+    assert together[3].count == 0 and together[3].min is None
+    assert columns.covers(together) and not columns.covers(together[:3])
+
+
+def test_a_bounded_consume_leaves_the_rest_for_the_next():
+    from rtcf._core._timing import CONSUME_BATCH, TimingAggregate, local_ring
+
+    ring = local_ring(2, capacity=4 * CONSUME_BATCH)
+    words = ring.data.cast("q")
+    stride = ring.record_size // 8
+    for _ in range(3 * CONSUME_BATCH):
+        off = ring.reserve()
+        for w in range(stride):
+            words[(off >> 3) + w] = 1000
+        ring.commit()
+    words.release()
+    agg = TimingAggregate()
+    assert agg.consume(ring, ["/a", "/b"], CONSUME_BATCH) == CONSUME_BATCH
+    assert agg.consume(ring, ["/a", "/b"]) == 2 * CONSUME_BATCH
+    assert agg.components["/a"].count == 3 * CONSUME_BATCH

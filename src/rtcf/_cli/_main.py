@@ -227,7 +227,8 @@ def cmd_launch(ns: argparse.Namespace) -> int:
         runner.start()
         try:
             for spec in target.components:
-                runner.load(spec)
+                runner.load(spec, refresh=False)
+            runner.refresh_introspection()  # once, over all of them
             info = runner.describe()
         except RtcfError as exc:
             if exc.file is None:

@@ -266,3 +266,50 @@ class LogHistogram:
                 f"histogram count {h.count} differs from its buckets' sum {int(h.counts.sum())}"
             )
         return h
+
+
+class HistogramColumns:
+    """The histograms of many columns (one per component), counted together: their
+    counters are rows of one block, so a batch of rows is counted in a few numpy calls
+    whatever the number of columns (one ``add`` per column per batch cost the
+    supervisor 30 µs a column: with a hundred components at 1 kHz it fell behind its
+    timing rows). Negative values (the component did not run) are not counted."""
+
+    __slots__ = ("block", "hists")
+
+    def __init__(self, hists: list[LogHistogram]) -> None:
+        self.hists = hists
+        self.block: npt.NDArray[np.int64] = np.zeros((len(hists), N_BUCKETS), dtype=np.int64)
+        for k, hist in enumerate(hists):  # the histograms count into the block from now on
+            self.block[k] = hist.counts
+            hist.counts = self.block[k]
+
+    def covers(self, hists: list[LogHistogram]) -> bool:
+        return len(hists) == len(self.hists) and all(
+            a is b for a, b in zip(hists, self.hists, strict=True))
+
+    def add(self, values: npt.NDArray[np.int64]) -> None:
+        """Count an (n, columns) int64 array, column k into histogram k."""
+        n, k = values.shape
+        if n == 0 or k == 0:
+            return
+        valid = values >= 0
+        counted = valid.sum(axis=0)
+        idx = bucket_indices(values) + (np.arange(k, dtype=np.int64) * N_BUCKETS)
+        flat = self.block.reshape(-1)
+        if valid.all():
+            chosen = idx.reshape(-1)
+        else:
+            chosen = idx[valid]
+        if chosen.size * 8 < flat.size:  # a small batch: count in place
+            np.add.at(flat, chosen, 1)
+        else:
+            flat += np.bincount(chosen, minlength=flat.size)
+        lo = np.where(valid, values, _INT64_MAX).min(axis=0).tolist()
+        hi = np.where(valid, values, -1).max(axis=0).tolist()
+        sums = np.where(valid, values, 0).sum(axis=0, dtype=np.int64).tolist()
+        for j, c in enumerate(counted.tolist()):
+            if c:
+                hist = self.hists[j]
+                hist.sum += sums[j]
+                hist._extend(c, lo[j], hi[j])

@@ -147,16 +147,23 @@ class TimingAggregate:
         self.dropped = 0  # rows the loop could not write (ring full), from finished rings
         self.last_iteration = -1
         self.on_rows: Any = None  # called with every batch of rows (numpy int64, n x columns)
+        self._columns: Any = None  # the components' histograms, counted as one block
 
-    def consume(self, ring: Ring, components: Sequence[str]) -> int:
-        """Aggregate every row waiting in ``ring``; return how many."""
+    def consume(self, ring: Ring, components: Sequence[str], limit: int | None = None) -> int:
+        """Aggregate every row waiting in ``ring`` (at most about ``limit``); return how
+        many."""
         width = FIXED_COLUMNS + len(components)
         stride = ring.record_size // 8
         import numpy as np
 
         hists = [self.components.setdefault(n, self._new()) for n in components]
+        if self._columns is None or not self._columns.covers(hists):
+            from ._histogram import HistogramColumns
+
+            self._columns = HistogramColumns(hists)
+        columns = self._columns
         total = 0
-        while True:
+        while limit is None or total < limit:
             start, n = ring.pending()
             if n == 0:
                 break
@@ -177,11 +184,8 @@ class TimingAggregate:
             else:
                 for p in np.unique(phase).tolist():
                     self._phase(p).add(rows[phase == p, COL_CALC])
-            for k, hist in enumerate(hists):
-                col = rows[:, FIXED_COLUMNS + k]
-                if col.min() < 0:  # iterations the component did not run in (inactive)
-                    col = col[col >= 0]
-                hist.add(col)
+            # each component's column (negative: an iteration it did not run in)
+            columns.add(rows[:, FIXED_COLUMNS:width])
             self.overruns += int(rows[:, COL_OVERRAN].sum())
             self.last_iteration = int(rows[-1, COL_ITERATION])
             self.rows += n
