@@ -127,7 +127,30 @@ def test_a_malformed_load_request_is_refused_and_the_runner_keeps_running(ros_no
         assert spin_until(ros_node, future.done)
         result = future.result().result
         assert not result.successful
-        assert "missing: class" in result.reason
+        assert result.reason == "load_component: missing field(s) class"
+
+        def load(**fields):
+            req = SetParametersAtomically.Request()
+            req.parameters = [
+                Parameter(name=k, value=PyParameter("v", value=v).get_parameter_value())
+                for k, v in {"module": "rtcf_examples", "class": "Mimo", "name": "y",
+                             **fields}.items()
+            ]
+            future = client.call_async(req)
+            assert spin_until(ros_node, future.done)
+            return future.result().result
+
+        # each field type-checked: one line naming the field, what came, what it wants
+        for fields, said in (
+            ({"remaps": 7}, "field 'remaps' got 7 (int); it wants a list of 'from:=to'"),
+            ({"is_first": "yes"}, "field 'is_first' got 'yes' (str); it wants true or false"),
+            ({"name": "n" * 5000}, "it wants a name of letters, digits and _ (segments split "
+                                   "by /) of at most 255 characters"),
+            ({"module": "os.path; import this"}, "it wants a Python module name"),
+        ):
+            result = load(**fields)
+            assert not result.successful and said in result.reason, result.reason
+            assert result.reason.startswith("load_component: field ")
         bad = launcher("/rt_runner", "ghost", "NoSuchClass")
         bad.communicate(timeout=60)
         assert bad.returncode == 1
@@ -135,8 +158,11 @@ def test_a_malformed_load_request_is_refused_and_the_runner_keeps_running(ros_no
         a, b = sum_of_two_launchers(ros_node, "/rt_runner", "")
         end(a, b)
     finally:
-        end(r)
+        if r.poll() is None:
+            r.send_signal(signal.SIGINT)
+        _, err = r.communicate(timeout=30)
     assert r.returncode == 0
+    assert "Warning" not in err and "Traceback" not in err, err  # nothing leaked
 
 
 def test_a_killed_launcher_gets_its_component_unloaded(ros_node):

@@ -55,6 +55,7 @@ from .._core._rates import Rate
 from .._core._runner import ComponentSpec
 from .._core._settings import RunnerSettings
 from .._launch._rosconsole import from_environment as rosconsole_config
+from .._runtime._request_fields import RequestRefused, check_request
 from .._runtime._requests import Request, RequestQueue, serve_request
 from .._runtime._usage import asks_for_help, launcher_usage, runner_usage
 
@@ -173,10 +174,23 @@ def runner_main(argv: list[str] | None = None) -> int:
     lock = threading.Lock()  # launchers: the watch thread reads it too
 
     def on_load(request: Any) -> Any:
+        try:  # every field type-checked before anything is imported
+            check_request("load_component", {
+                "module": request.package, "class": request.type, "name": request.name,
+                "namespace": request.namespace, "remaps": list(request.remaps),
+                "is_first": bool(request.is_first),
+                "topics_ignore_for_graph": request.topics_ignore_for_graph,
+                "launcher": request.launcher})
+        except RequestRefused as exc:
+            return srv.LoadComponentResponse(success=False, message=str(exc))
         req = submit("load", request)
         return srv.LoadComponentResponse(success=req.ok, message=req.reason)
 
     def on_unload(request: Any) -> Any:
+        try:
+            check_request("unload_component", {"name": request.name})
+        except RequestRefused as exc:
+            return srv.UnloadComponentResponse(success=False, message=str(exc))
         req = submit("unload", str(request.name))
         return srv.UnloadComponentResponse(success=req.ok, message=req.reason)
 

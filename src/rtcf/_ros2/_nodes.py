@@ -47,6 +47,7 @@ from .._core._lifecycle import STATE_IDS, TransitionOutcome
 from .._core._rates import Rate
 from .._core._runner import ComponentSpec
 from .._core._settings import RunnerSettings
+from .._runtime._request_fields import RequestRefused, check_request
 from .._runtime._requests import Request, RequestQueue, serve_request
 from .._runtime._usage import asks_for_help, launcher_usage, runner_usage
 from ._face import ComponentFace, ros_logger_name
@@ -147,15 +148,29 @@ def runner_main(argv: list[str] | None = None) -> int:
     submit = requests.submit
     launchers: dict[str, str] = {}  # component -> launcher node that asked for it
 
+    def fields(service: str, request: Any, response: Any) -> dict[str, Any] | None:
+        """The request's fields, type-checked; None (and the refusal in ``response``)
+        if one is not what the service takes. Nothing is imported or made before."""
+        try:
+            return check_request(service, {p.name: _value(p.value) for p in request.parameters})
+        except RequestRefused as exc:
+            response.result = SetParametersResult(successful=False, reason=str(exc))
+            return None
+
     def on_load(request: Any, response: Any) -> Any:
-        req = submit("load", {p.name: _value(p.value) for p in request.parameters})
+        values = fields("load_component", request, response)
+        if values is None:
+            return response
+        req = submit("load", values)
         # on success the reason carries the component as the launcher shows it (JSON)
         response.result = SetParametersResult(successful=req.ok, reason=req.reason)
         return response
 
     def on_tune(request: Any, response: Any) -> Any:
         # from the bridge thread: WorkerRunner validates and queues under its own lock
-        values = {p.name: _value(p.value) for p in request.parameters}
+        values = fields("tune_component", request, response)
+        if values is None:
+            return response
         try:
             component = str(values.pop("name", ""))
             for key, value in values.items():
@@ -172,7 +187,10 @@ def runner_main(argv: list[str] | None = None) -> int:
 
     def on_lifecycle(request: Any, response: Any) -> Any:
         # from the bridge thread: waits for the loop's next iteration, which goes on
-        values = {p.name: _value(p.value) for p in request.parameters}
+        values = fields("lifecycle_component", request, response)
+        if values is None:
+            response.result.reason = json.dumps({"error": response.result.reason})
+            return response
         component = str(values.get("name", ""))
         transition = values.get("transition")
         answer: dict[str, Any] = {}
@@ -190,7 +208,9 @@ def runner_main(argv: list[str] | None = None) -> int:
         return response
 
     def on_unload(request: Any, response: Any) -> Any:
-        values = {p.name: _value(p.value) for p in request.parameters}
+        values = fields("unload_component", request, response)
+        if values is None:
+            return response
         req = submit("unload", str(values.get("name", "")))
         response.result = SetParametersResult(successful=req.ok, reason=req.reason)
         return response
@@ -288,6 +308,8 @@ def _spec(values: dict[str, Any]) -> tuple[ComponentSpec, str]:
         )
     remaps = []
     for rule in values.get("remaps") or []:
+        if rule == "":  # a launcher's empty list (ROS 2 parameters cannot carry one)
+            continue
         src, sep, dst = str(rule).partition(":=")
         if not sep or not src or not dst:
             raise RtcfError(f"remap {rule!r} is not of the form from:=to")
