@@ -60,6 +60,7 @@ def test_timing_summary_on_diagnostics(ros_node):
     assert int(values["iterations"]) > 0
     assert float(values["calc p999 [us]"]) > 0
     assert "/H1 calc p999 [us]" in values and "/R3 calc max [us]" in values
+    assert values["access"] == "open: any request on its domain"  # no lock, any module
     assert "iterations" in status.message and "overruns" in status.message
     # the count grows from one summary to the next
     assert int({kv.key: kv.value for kv in arrays[0].status[0].values}["iterations"]) < int(

@@ -26,7 +26,7 @@ from .._launch._deployment import Deployment, RunnerDeployment
 from .._launch._files import load_deployment
 from .._runtime._live import FoxgloveLive, RecordSinks
 from .._runtime._mcap import McapRecording
-from .._runtime._supervisor import Bridge, LiveStatus, WorkerRunner
+from .._runtime._supervisor import Bridge, LiveStatus, WorkerRunner, access_of
 from . import _evaluate, _recording_tools
 from . import _replay as _replay_command
 from ._costs import apply_measured_costs
@@ -107,6 +107,8 @@ def _build_runner(
 def _describe_graph(graph: Graph, runner: Runner) -> str:
     settings = runner.settings
     lines = [f"runner {runner.name}: {settings.frequency:g} Hz, mode {settings.mode}"]
+    if access_of(settings):
+        lines.append(f"access: {access_of(settings)}")
     lines.append(f"components ({len(graph.nodes)}):")
     for node in sorted(graph.nodes, key=lambda n: graph.order.index(n.name)):
         flags = " [is_first]" if node.is_first else ""
@@ -179,10 +181,19 @@ def cmd_check(ns: argparse.Namespace) -> int:
                     file=target.location.file,
                     line=target.location.line,
                 )
+            for spec in target.components:  # what the runner would refuse to load
+                if not target.settings.allows_module(spec.module):
+                    raise LaunchError(
+                        f"runner {target.name}: component {spec.full_name}'s module "
+                        f"{spec.module!r} is not in its allowed_modules "
+                        f"({' '.join(target.settings.allowed_modules)})",
+                        file=target.location.file, line=target.location.line)
             print(
                 f"{deployment.source}: OK: runner {target.name}, {len(graph.nodes)} components, "
                 f"{len(graph.edges)} connections, order: " + " -> ".join(graph.order)
             )
+            if access_of(target.settings):
+                print(f"access: {access_of(target.settings)}")
             for line in _rate_plan(runner):
                 print(line)
         finally:

@@ -13,6 +13,7 @@ MODES = ("wait_for_components", "no_wait", "wait_for_trigger")
 RELIABILITIES = ("reliable", "best_effort")
 DURABILITIES = ("volatile", "transient_local")
 WAIT_POLICIES = ("absolute", "relative")
+LOCKS = ("none", "structure", "all")  # what a running runner refuses (docs/security.md)
 DEFAULT_FREQUENCY = 1.0
 
 
@@ -44,6 +45,10 @@ class RunnerSettings:
     ``lanes``: where the lanes other than main run, ``"name:cpu[:priority], ..."`` (or a
     mapping of name to ``{"cpu": .., "priority": ..}``); a lane not named gets a CPU of
     its own where one is left (:func:`lane_placement`).
+    ``lock``: ``none``; ``structure`` (once the loop runs, load, unload and lifecycle
+    requests are refused); ``all`` (tunables too). ``allowed_modules``: full-match
+    regexes (a list, or one string split at whitespace) that a loaded component's
+    module must match, checked before it is imported; empty: any module.
     """
 
     mode: str = "no_wait"
@@ -69,6 +74,8 @@ class RunnerSettings:
     hook_timeout: float = 10.0
     heartbeat_timeout: float = 5.0
     lanes: str = ""
+    lock: str = "none"
+    allowed_modules: tuple[str, ...] = ()
     notes: list[str] = field(default_factory=list, compare=False)
 
     def __post_init__(self) -> None:
@@ -77,6 +84,11 @@ class RunnerSettings:
     @property
     def period_ns(self) -> int:
         return round(1e9 / self.frequency)
+
+    def allows_module(self, module: str) -> bool:
+        """Whether ``allowed_modules`` lets a component of ``module`` load."""
+        return not self.allowed_modules or any(
+            re.fullmatch(p, module) for p in self.allowed_modules)
 
     def maps_to_ros(self, topic: str) -> bool:
         """Whether ``topic`` matches the whitelist and not the blacklist."""
@@ -126,6 +138,14 @@ class RunnerSettings:
             raise bad(f"heartbeat_timeout {self.heartbeat_timeout!r} s must not be negative")
         if not 1 <= self.priority <= 99:
             raise bad(f"priority {self.priority} is out of range; SCHED_FIFO takes 1 to 99")
+        if self.lock not in LOCKS:
+            raise bad(f"lock {self.lock!r} is unknown; use one of {', '.join(LOCKS)}")
+        for pattern in self.allowed_modules:
+            try:
+                re.compile(pattern)
+            except re.error as exc:
+                raise bad(f"allowed_modules {pattern!r} is not a valid regular expression: "
+                          f"{exc}") from None
         try:
             parse_lanes(self.lanes)
         except ValueError as exc:
@@ -225,6 +245,8 @@ _CONVERTERS = {
     "hook_timeout": _to_float,
     "heartbeat_timeout": _to_float,
     "lanes": lambda v: _lanes_text(v),
+    "lock": _to_str,
+    "allowed_modules": lambda v: _regex_list(v),
 }
 _EXPECTED = {
     "mode": "a string",
@@ -249,6 +271,9 @@ _EXPECTED = {
     "hook_timeout": "a number of seconds",
     "heartbeat_timeout": "a number of seconds",
     "lanes": "'name:cpu[:priority], ...' or a mapping of lane names to {cpu, priority}",
+    "lock": "none, structure or all",
+    "allowed_modules": "a list of regular expressions (or one string of them split at "
+                       "whitespace)",
 }
 # one line each, for rt_runner --help (docs/runner.md has the whole story)
 _MEANING = {
@@ -274,6 +299,9 @@ _MEANING = {
     "hook_timeout": "seconds a configure/start/stop/cleanup/safe_stop hook may take",
     "heartbeat_timeout": "seconds the loop runs on without its supervisor (0: off)",
     "lanes": "where lanes run: 'name:cpu[:priority], ...'",
+    "lock": "none, structure (no load, unload, lifecycle once running) or all (tunables "
+            "too)",
+    "allowed_modules": "regexes a loaded component's module must match (empty: any)",
 }
 
 
@@ -283,7 +311,7 @@ def parameter_help() -> list[tuple[str, str, str]]:
     out = []
     for name in _CONVERTERS:
         default = fields[name].default
-        shown = "" if default in ("", None) else (
+        shown = "" if default in ("", None, ()) else (
             str(default).lower() if isinstance(default, bool) else str(default))
         out.append((name, shown, _MEANING[name]))
     return out
@@ -291,6 +319,15 @@ def parameter_help() -> list[tuple[str, str, str]]:
 
 # parameters a runner node may carry that are not settings
 _IGNORED: set[str] = set()
+
+
+def _regex_list(v: Any) -> tuple[str, ...]:
+    """``allowed_modules``: a list of strings, or one string split at whitespace."""
+    if isinstance(v, str):
+        return tuple(v.split())
+    if isinstance(v, (list, tuple)) and all(isinstance(x, str) for x in v):
+        return tuple(x for x in v if x)
+    raise ValueError(v)
 
 
 def _lanes_text(v: Any) -> str:

@@ -35,6 +35,7 @@ def health(runner: str, status: LiveStatus, aggregate: TimingAggregate) -> Healt
         ("timing rows dropped", text(aggregate.dropped)),
         ("component faults contained", text(status.faults)),
     ]
+    values.append(("access", status.access or "open: any request on its domain"))
     for label, stats in (("jitter", summary.jitter_us), ("calc", summary.calc_us)):
         for q in ("p50", "p99", "p999", "max"):
             if q in stats:

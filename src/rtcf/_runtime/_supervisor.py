@@ -69,6 +69,7 @@ from ._lanes import LaneLayout, abort_all, init_words, layout, reset_stop
 from ._port_channels import OUTPUT_RING_RECORDS, MailboxFanOut, MappedPort, segment_size
 from ._recording import RecordedTopic, RecordingDrain, RecordSink, relaid
 from ._recording import segment_size as recording_segment_size
+from ._request_fields import RequestRefused
 from ._shm import Segment, outgoing, send_segments
 from ._worker import (
     CLOCK_MAILBOX_OFFSET,
@@ -102,6 +103,21 @@ class LiveStatus:
     log_records_dropped: int
     elapsed_s: float
     faults: int = 0  # component failures a policy contained (on_error deactivate/restart)
+    # who may change the runner: "lock L", "allowed modules ..." (empty: anyone, anything)
+    access: str = ""
+
+
+def access_of(settings: RunnerSettings, locked: bool | None = None) -> str:
+    """Who may change a runner, in a line: its lock (and whether it applies yet) and
+    its allowed modules; empty when it is open to any request."""
+    parts = []
+    if settings.lock != "none":
+        when = "" if locked is None else (" (applies)" if locked else
+                                          " (applies once the loop runs)")
+        parts.append(f"lock {settings.lock}{when}")
+    if settings.allowed_modules:
+        parts.append("allowed modules " + " ".join(settings.allowed_modules))
+    return "; ".join(parts)
 
 
 class WorkerRunner:
@@ -167,6 +183,9 @@ class WorkerRunner:
         # lanes: this worker's lane; the main lane's runner starts a worker per other
         # lane, routes each component's verbs to its lane, and runs them together
         self.lane = MAIN_LANE
+        # the runner's lock (settings.lock) applies once its loop has run: a launch
+        # file's components load before (docs/security.md)
+        self.locked = False
         self._lanes: dict[str, WorkerRunner] = {}
         self._lane_of: dict[str, str] = {}  # component -> lane (other than main)
         self._lane_seg: Segment | None = None
@@ -451,14 +470,29 @@ class WorkerRunner:
             log_records_dropped=self.log_records_dropped,
             elapsed_s=time.monotonic() - started,
             faults=self._ctl[CTL_FAULTS] if self._ctl is not None else 0,
+            access=access_of(self.settings, self.locked),
         )
 
     # -- the runner's verbs ------------------------------------------------------
+    def _refuse_if_locked(self, what: str, locks: tuple[str, ...] = ("structure", "all")) -> None:
+        if self.locked and self.settings.lock in locks:
+            raise RequestRefused(
+                f"runner {self.name} is locked (lock {self.settings.lock}): it refuses "
+                f"{what} while its loop runs; its launch file or parameters set lock"
+            )
+
     def load(self, spec: ComponentSpec, *, launcher: str = "", refresh: bool = True) -> str:
         """Load a component into its lane's worker. ``refresh=False``: leave the
         introspection (the order and the graph over all components) for one
         :meth:`refresh_introspection` after a batch of loads (a launch file's: once per
         load, a thousand components took 20 s)."""
+        module = spec.cls.__module__ if spec.cls is not None else spec.module
+        if not self.settings.allows_module(module):  # before the worker imports it
+            raise RequestRefused(
+                f"runner {self.name}: module {module[:80]!r} of {spec.full_name[:80]!r} is "
+                f"not in its allowed_modules ({' '.join(self.settings.allowed_modules)})"
+            )
+        self._refuse_if_locked("loads")
         lane = lane_of(spec.lane)
         if lane != self.lane and self.lane == MAIN_LANE:  # another lane's worker loads it
             worker = self._lane_worker(lane)
@@ -497,6 +531,7 @@ class WorkerRunner:
             worker.call("set_parameters", values)
 
     def unload(self, name: str) -> None:
+        self._refuse_if_locked("unloads")
         full = name if name.startswith("/") else "/" + name
         owner = self._owner_of(full)
         if owner is not self:
@@ -560,6 +595,7 @@ class WorkerRunner:
 
     def set_parameter(self, component: str, name: str, value: Any) -> Any:
         """Validate a new value here, then hand it to the worker for the next iteration."""
+        self._refuse_if_locked("changes of tunable parameters", ("all",))
         owner = self._owner_of(component)
         if owner is not self:
             return owner.set_parameter(component, name, value)
@@ -624,6 +660,7 @@ class WorkerRunner:
         periods) gives up with a refusal; the transition may still happen later (the
         listeners hear of it then).
         """
+        self._refuse_if_locked("lifecycle transitions")
         owner = self._owner_of(component)
         if owner is not self:
             return owner.change_state(component, transition, timeout)
@@ -923,6 +960,8 @@ class WorkerRunner:
         return seg, channels
 
     def _on_started(self) -> None:
+        if self.lane == MAIN_LANE and self.settings.lock != "none":
+            self.locked = True
         self._events["started_at"] = time.monotonic()
         realtime = self._events["started"]
         if self.settings.cpu_affinity_mask:
