@@ -91,7 +91,14 @@ def test_bad_load_requests_are_refused_and_the_runner_keeps_running(topics):
     sum3("/rbad", "bad")
     load = rospy.ServiceProxy("/rbad/load_component", LoadComponent)
     answer = load(LoadComponentRequest(package="", type="Mimo", name="x"))
-    assert not answer.success and "package" in answer.message, answer.message
+    assert answer.message == "load_component: missing field(s) package", answer.message
+    answer = load(LoadComponentRequest(package="rtcf_examples", type="Mimo", name="n" * 5000))
+    assert not answer.success and answer.message.startswith(
+        "load_component: field 'name' got 'nnn"), answer.message
+    assert "of at most 255 characters" in answer.message
+    answer = load(LoadComponentRequest(package="os; import this", type="X", name="y"))
+    assert "field 'package' got 'os; import this' (str); it wants a Python module name" in (
+        answer.message), answer.message
     answer = load(LoadComponentRequest(package="no_such_module", type="X", name="y"))
     assert not answer.success and "no_such_module" in answer.message, answer.message
     answer = load(LoadComponentRequest(package="rtcf_examples", type="Mimo", name="z",

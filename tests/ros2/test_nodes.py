@@ -285,3 +285,40 @@ def test_help_prints_the_usage_and_starts_no_node(exe):
     from rtcf._runtime._usage import asks_for_help
 
     assert not asks_for_help([exe, "--ros-args", "-p", "x:=1", "-h"])
+
+
+def test_a_locked_runner_keeps_its_components_and_loads_only_allowed_modules(ros_node):
+    from diagnostic_msgs.msg import DiagnosticArray
+
+    access = []
+    ros_node.create_subscription(
+        DiagnosticArray, "/diagnostics",
+        lambda m: access.extend(kv.value for s in m.status if s.name == "rtcf: /locked"
+                                for kv in s.values if kv.key == "access"), 10)
+    r = runner("locked", mode="wait_for_components", num_components_expected=2,
+               lock="structure", allowed_modules="rtcf_examples")
+    try:
+        wait_for(r, "ready")
+        a = launcher("/locked", "la", "Mimo")
+        b = launcher("/locked", "lb", "Mimo")
+        wait_for(a, "loaded into")
+        wait_for(b, "loaded into")
+        # both loaded, the loop runs, and with it the lock
+        assert spin_until(ros_node, lambda: any(v.startswith("lock structure (applies)")
+                                                for v in access), timeout=30), access
+        assert access[-1] == "lock structure (applies); allowed modules rtcf_examples"
+        evil = start("rt_launcher", "os", "system", "--ros-args", "-r", "__node:=evil",
+                     "-p", "runner:=/locked")
+        _, err = evil.communicate(timeout=60)
+        assert evil.returncode == 1
+        assert "module 'os' of '/evil' is not in its allowed_modules (rtcf_examples)" in err
+        end(a)  # its unload is refused: a locked robot keeps its controller
+        _, err = a.communicate(timeout=30)
+        assert ("unload refused: runner /locked is locked (lock structure): it refuses "
+                "unloads while its loop runs") in err
+        end(b)
+    finally:
+        if r.poll() is None:
+            r.send_signal(signal.SIGINT)
+        _, err = r.communicate(timeout=30)
+    assert "refused unload: runner /locked is locked" in err

@@ -180,7 +180,7 @@ def runner_main(argv: list[str] | None = None) -> int:
                 "namespace": request.namespace, "remaps": list(request.remaps),
                 "is_first": bool(request.is_first),
                 "topics_ignore_for_graph": request.topics_ignore_for_graph,
-                "launcher": request.launcher})
+                "launcher": request.launcher}, named={"module": "package", "class": "type"})
         except RequestRefused as exc:
             return srv.LoadComponentResponse(success=False, message=str(exc))
         req = submit("load", request)

@@ -116,9 +116,28 @@ REQUIRED = {
 _PARAMETERS = ("load_component", "tune_component")
 
 
-def check_request(service: str, values: Mapping[str, Any]) -> dict[str, Any]:
-    """``values`` if every field is what ``service`` takes; else RequestRefused."""
+def check_request(
+    service: str, values: Mapping[str, Any], named: Mapping[str, str] | None = None
+) -> dict[str, Any]:
+    """``values`` if every field is what ``service`` takes; else RequestRefused.
+    ``named``: the middleware's names of the fields, for the refusal (ROS 1's
+    LoadComponent calls module and class ``package`` and ``type``)."""
     fields = FIELDS[service]
+    try:
+        _check(service, fields, values)
+    except RequestRefused as exc:
+        if not named:
+            raise
+        text = str(exc)
+        for ours, theirs in named.items():
+            text = text.replace(f"'{ours}'", f"'{theirs}'").replace(
+                f"field(s) {ours}", f"field(s) {theirs}")
+        raise RequestRefused(text) from None
+    return dict(values)
+
+
+def _check(service: str, fields: Mapping[str, Callable[[Any], str | None]],
+           values: Mapping[str, Any]) -> None:
     for key, value in values.items():
         if not isinstance(key, str):
             raise RequestRefused(f"{service}: a field named {_shown(key)}; names are strings")
@@ -136,4 +155,3 @@ def check_request(service: str, values: Mapping[str, Any]) -> dict[str, Any]:
     missing = [k for k in REQUIRED[service] if values.get(k) in (None, "")]
     if missing:
         raise RequestRefused(f"{service}: missing field(s) {', '.join(missing)}")
-    return dict(values)
