@@ -31,6 +31,15 @@ def test_a_locked_runner_refuses_structure_once_its_loop_has_run(lock) -> None:
             with pytest.raises(RequestRefused, match=f"runner rt_runner is locked \\(lock "
                                                      f"{lock}\\): it refuses "):
                 refused()
+        # what a middleware's service asks before it stops the loop for a request
+        for what in ("loads", "unloads", "lifecycle transitions"):
+            with pytest.raises(RequestRefused, match=f"it refuses {what} while"):
+                runner.admits(what)
+        if lock == "structure":
+            runner.admits("tunables")
+        else:
+            with pytest.raises(RequestRefused, match="refuses changes of tunable"):
+                runner.admits("tunables")
         assert sorted(runner.components) == ["/a", "/b"]  # nothing changed
         assert runner.run(2).iterations == 2  # and the loop goes on
         assert runner.shutdown() == []
@@ -48,6 +57,9 @@ def test_allowed_modules_refuse_a_module_before_it_is_imported() -> None:
         with pytest.raises(RequestRefused, match="not in its allowed_modules"):
             runner.load(ComponentSpec("x", module="rtcf_examples_not", class_name="X"))
         assert sorted(runner.components) == ["/a"]
+        runner.admits("loads", "my_robot")
+        with pytest.raises(RequestRefused, match="module 'os' is not in its allowed_modules"):
+            runner.admits("loads", "os")
         assert runner.live_status().access == r"allowed modules rtcf_examples my_\w+"
         assert runner.shutdown() == []
 

@@ -155,3 +155,57 @@ def test_fig1_split_across_two_hosts_follows_the_sequence_and_counts_every_messa
     assert counts["read"] >= len(back)
     # the messages went over the link (UDP), not through this machine's shared memory
     assert host_b.received_bytes() - rx_before > 3 * 20 * n
+
+
+_SEES = """
+import sys, time, rclpy
+from rclpy.node import Node
+rclpy.init()
+node = Node("probe")
+deadline, seen = time.monotonic() + float(sys.argv[2]), set()
+while time.monotonic() < deadline and sys.argv[1] not in seen:
+    rclpy.spin_once(node, timeout_sec=0.1)
+    seen |= {t for t, _ in node.get_topic_names_and_types()}
+print(sys.argv[1] in seen)
+"""
+
+
+def _sees(host, topic: str, seconds: float, **env: str) -> bool:
+    """Whether a probe node on ``host`` finds ``topic`` in the graph within ``seconds``."""
+    done = subprocess.run(host.command(sys.executable, "-c", _SEES, topic, str(seconds)),
+                          capture_output=True, text=True, timeout=120,
+                          env={**rtcf_env(), **_hosts.UDP_ONLY, **env},
+                          stdin=subprocess.DEVNULL)
+    assert done.returncode == 0, done.stderr
+    return done.stdout.strip() == "True"
+
+
+def test_a_runner_kept_to_localhost_is_found_from_its_own_host_only(hosts, tmp_path):
+    """ROS 2 Jazzy's ROS_AUTOMATIC_DISCOVERY_RANGE=LOCALHOST (docs/security.md): a
+    runner that talks only to its own computer is not found from the network."""
+    host_a, host_b = hosts
+    ramp = ('  <node name="{0}" pkg="rtcf" type="rt_launcher" args="rtcf_examples Ramp">'
+            '<remap from="out" to="/hosts/{0}"/></node>')
+    local = _launch(tmp_path, "local", 50.0, ramp.format("local"))
+    open_ = _launch(tmp_path, "open", 50.0, ramp.format("open"))
+    procs = []
+    for launch, extra in ((local, {"ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST"}),
+                          (open_, {})):
+        out = tmp_path / launch.stem
+        out.mkdir()
+        env = {**rtcf_env(), **_hosts.UDP_ONLY, **extra}
+        procs.append(subprocess.Popen(
+            host_a.command(sys.executable, "-m", "rtcf", "launch", str(launch),
+                           "--middleware", "ros2", "--duration", "30"),
+            stdout=subprocess.PIPE, stderr=subprocess.PIPE, stdin=subprocess.DEVNULL,
+            text=True, env=env))
+    try:
+        # on its own host, a probe kept to localhost too finds it
+        assert _sees(host_a, "/hosts/local", 15, ROS_AUTOMATIC_DISCOVERY_RANGE="LOCALHOST")
+        # from the other host: the open runner is found, the local one is not
+        assert _sees(host_b, "/hosts/open", 15)
+        assert not _sees(host_b, "/hosts/local", 5)
+    finally:
+        for p in procs:
+            p.terminate()
+            p.communicate(timeout=30)

@@ -181,6 +181,7 @@ def runner_main(argv: list[str] | None = None) -> int:
                 "is_first": bool(request.is_first),
                 "topics_ignore_for_graph": request.topics_ignore_for_graph,
                 "launcher": request.launcher}, named={"module": "package", "class": "type"})
+            runner.admits("loads", str(request.package))  # lock, allowed_modules
         except RequestRefused as exc:
             return srv.LoadComponentResponse(success=False, message=str(exc))
         req = submit("load", request)
@@ -189,6 +190,7 @@ def runner_main(argv: list[str] | None = None) -> int:
     def on_unload(request: Any) -> Any:
         try:
             check_request("unload_component", {"name": request.name})
+            runner.admits("unloads")
         except RequestRefused as exc:
             return srv.UnloadComponentResponse(success=False, message=str(exc))
         req = submit("unload", str(request.name))

@@ -148,11 +148,20 @@ def runner_main(argv: list[str] | None = None) -> int:
     submit = requests.submit
     launchers: dict[str, str] = {}  # component -> launcher node that asked for it
 
+    admitted = {"load_component": "loads", "unload_component": "unloads",
+                "lifecycle_component": "lifecycle transitions", "tune_component": "tunables"}
+
     def fields(service: str, request: Any, response: Any) -> dict[str, Any] | None:
-        """The request's fields, type-checked; None (and the refusal in ``response``)
-        if one is not what the service takes. Nothing is imported or made before."""
+        """The request's fields, type-checked, and the request admitted by the runner's
+        lock and allowed_modules; None (and the refusal in ``response``) if not. Nothing
+        is imported or made before, and the loop is not stopped for a refusal."""
         try:
-            return check_request(service, {p.name: _value(p.value) for p in request.parameters})
+            values = check_request(
+                service, {p.name: _value(p.value) for p in request.parameters})
+            what = admitted[service]
+            if what != "tunables" or any(k.startswith("param.") for k in values):
+                runner.admits(what, values.get("module") if what == "loads" else None)
+            return values
         except RequestRefused as exc:
             response.result = SetParametersResult(successful=False, reason=str(exc))
             return None

@@ -481,6 +481,20 @@ class WorkerRunner:
                 f"{what} while its loop runs; its launch file or parameters set lock"
             )
 
+    def admits(self, what: str, module: str | None = None) -> None:
+        """RequestRefused if the runner's lock or allowed_modules refuse a request, so
+        that a middleware's service answers it without stopping the loop (any thread).
+        ``what``: "loads", "unloads", "lifecycle transitions" or "tunables"."""
+        if module is not None and not self.settings.allows_module(module):
+            raise RequestRefused(
+                f"runner {self.name}: module {module[:80]!r} is not in its allowed_modules "
+                f"({' '.join(self.settings.allowed_modules)})"
+            )
+        if what == "tunables":
+            self._refuse_if_locked("changes of tunable parameters", ("all",))
+        else:
+            self._refuse_if_locked(what)
+
     def load(self, spec: ComponentSpec, *, launcher: str = "", refresh: bool = True) -> str:
         """Load a component into its lane's worker. ``refresh=False``: leave the
         introspection (the order and the graph over all components) for one
