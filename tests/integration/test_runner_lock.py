@@ -68,6 +68,9 @@ def test_a_runner_without_a_lock_is_open() -> None:
     with WorkerRunner(RunnerSettings(frequency=100.0), simulated=True) as runner:
         runner.load(_mimo("a"))
         runner.run(2)
+        runner.admits("loads", "anything", "/b")
+        with pytest.raises(RequestRefused, match="'/a': is already loaded"):
+            runner.admits("loads", "rtcf_examples", "/a")  # answered without the worker
         assert not runner.locked and runner.live_status().access == ""
         runner.load(_mimo("b"))
         runner.unload("a")

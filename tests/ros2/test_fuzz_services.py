@@ -151,4 +151,6 @@ def test_after_the_fuzz_the_loop_ran_on_and_the_loads_unload_cleanly(fuzzed):
     proc.wait(timeout=60)
     assert proc.returncode == 0, "".join(state["said"][-20:])
     assert not [x for x in state["said"] if "Traceback" in x or "Warning" in x], state["said"]
+    # a doubled name is refused in the service's answer, without stopping the loop
+    assert not [x for x in state["said"] if "already loaded" in x], state["said"]
     assert rtcf_shm_names() == []

@@ -181,8 +181,9 @@ def runner_main(argv: list[str] | None = None) -> int:
                 "is_first": bool(request.is_first),
                 "topics_ignore_for_graph": request.topics_ignore_for_graph,
                 "launcher": request.launcher}, named={"module": "package", "class": "type"})
-            runner.admits("loads", str(request.package))  # lock, allowed_modules
-        except RequestRefused as exc:
+            spec, _ = _spec(request)  # what can be refused without the worker, is
+            runner.admits("loads", str(request.package), spec.full_name)
+        except RtcfError as exc:
             return srv.LoadComponentResponse(success=False, message=str(exc))
         req = submit("load", request)
         return srv.LoadComponentResponse(success=req.ok, message=req.reason)

@@ -170,6 +170,12 @@ def runner_main(argv: list[str] | None = None) -> int:
         values = fields("load_component", request, response)
         if values is None:
             return response
+        try:  # what can be refused without the worker, is (the loop goes on meanwhile)
+            spec, _ = _spec(values)
+            runner.admits("loads", component=spec.full_name)
+        except RtcfError as exc:
+            response.result = SetParametersResult(successful=False, reason=str(exc))
+            return response
         req = submit("load", values)
         # on success the reason carries the component as the launcher shows it (JSON)
         response.result = SetParametersResult(successful=req.ok, reason=req.reason)

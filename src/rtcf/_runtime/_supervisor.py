@@ -481,10 +481,16 @@ class WorkerRunner:
                 f"{what} while its loop runs; its launch file or parameters set lock"
             )
 
-    def admits(self, what: str, module: str | None = None) -> None:
-        """RequestRefused if the runner's lock or allowed_modules refuse a request, so
-        that a middleware's service answers it without stopping the loop (any thread).
-        ``what``: "loads", "unloads", "lifecycle transitions" or "tunables"."""
+    def admits(self, what: str, module: str | None = None, component: str | None = None) -> None:
+        """RequestRefused if the runner's lock or allowed_modules refuse a request, or a
+        load names a component already loaded, so that a middleware's service answers it
+        without stopping the loop (any thread). ``what``: "loads", "unloads",
+        "lifecycle transitions" or "tunables"."""
+        if component is not None and component in self.components:
+            raise RequestRefused(
+                f"component {component[:80]!r}: is already loaded; give each component a "
+                "unique name"
+            )
         if module is not None and not self.settings.allows_module(module):
             raise RequestRefused(
                 f"runner {self.name}: module {module[:80]!r} is not in its allowed_modules "
