@@ -3,14 +3,18 @@ a locked one (docs/security.md). LoadComponent's fields are typed by its .srv, s
 fuzz is in their values: names, modules, classes, remaps and regexes of any text.
 
 Checked: every request is answered, in one line without a traceback; the runner stays
-up and its loop runs on; loads that were accepted unload cleanly; a locked runner
-keeps its components, and loads only modules its allowed_modules name.
+up and its loop runs on; a refused load (a module or class that does not exist, a
+doubled name) does not stop the loop (its /diagnostics "loop starts"); loads that were
+accepted unload cleanly; a locked runner keeps its components, and loads only modules
+its allowed_modules name.
 """
 
 import string
+import time
 
 import pytest
 import rospy
+from diagnostic_msgs.msg import DiagnosticArray
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from rtcf_msgs.srv import (
@@ -60,13 +64,54 @@ def fuzzed(ros_node):
     }
     for p in proxies.values():
         p.wait_for_service(timeout=20)
-    state = {"proc": proc, "proxies": proxies, "answered": 0, "loaded": set(), "refused": 0}
+    starts = []  # (when, the runner's "loop starts") from its /diagnostics
+    sub = rospy.Subscriber(
+        "/diagnostics", DiagnosticArray,
+        lambda m: starts.extend((time.monotonic(), int(kv.value)) for s in m.status
+                                if s.name == "rtcf: /fuzzed" for kv in s.values
+                                if kv.key == "loop starts"), queue_size=100)
+    state = {"proc": proc, "proxies": proxies, "answered": 0, "loaded": set(), "refused": 0,
+             "starts": starts}
     try:
         yield state
     finally:
+        sub.unregister()
         for p in proxies.values():
             p.close()
         end(proc)
+
+
+def _loop_starts(state):
+    """The runner's "loop starts", as its /diagnostics say it after this moment."""
+    asked = time.monotonic()
+    deadline = asked + 30
+    while not any(t > asked for t, _ in state["starts"]):
+        assert time.monotonic() < deadline, "no /diagnostics from the runner"
+        time.sleep(0.05)
+    return state["starts"][-1][1]
+
+
+def test_refused_loads_are_answered_without_stopping_the_loop(fuzzed):
+    load = fuzzed["proxies"]["load"]
+    good = {"package": "rtcf_examples", "type": "Mimo", "name": "held"}
+    assert load(LoadComponentRequest(**good)).success
+    before = _loop_starts(fuzzed)
+    for fields, said in (
+        (dict(good, package="no_such_module", name="a"), "module 'no_such_module' is not found"),
+        (dict(good, package="rtcf_examples.nope", name="b"),
+         "module 'rtcf_examples.nope' is not found"),
+        (dict(good, type="NoSuchClass", name="c"), "has no class 'NoSuchClass'"),
+        (good, "is already loaded"),
+        (dict(good, name="d", remaps=["x"]), "remap"),
+    ):
+        answer = load(LoadComponentRequest(**fields))
+        assert not answer.success and said in answer.message, (fields, answer.message)
+    assert _loop_starts(fuzzed) == before, "a refused load stopped the loop"
+    # the count does see a real stop: a load (with none loaded, no loop runs to say it)
+    assert load(LoadComponentRequest(**dict(good, name="held2"))).success
+    assert _loop_starts(fuzzed) > before
+    assert fuzzed["proxies"]["unload"](UnloadComponentRequest(name="held2")).success
+    fuzzed["loaded"].add("/held")
 
 
 @settings(max_examples=1000, deadline=None, derandomize=True,
@@ -75,9 +120,13 @@ def fuzzed(ros_node):
 @given(request=REQUEST)
 def test_a_thousand_generated_requests_are_each_answered(fuzzed, request):
     kind, req = request
+    if "first" not in fuzzed:
+        fuzzed["first"] = _loop_starts(fuzzed)
     proxy = fuzzed["proxies"][kind]
     answer = proxy(req) if req is not None else proxy()
     fuzzed["answered"] += 1
+    if answer.success:
+        fuzzed["accepted"] = fuzzed.get("accepted", 0) + 1  # may stop and start the loop
     assert fuzzed["proc"].poll() is None, "the runner ended"
     if kind == "load":
         assert "Traceback" not in answer.message and "\n" not in answer.message, answer.message
@@ -93,6 +142,9 @@ def test_after_the_fuzz_the_loads_unload_cleanly(fuzzed):
     assert len(fuzzed["loaded"]) >= 10 and fuzzed["refused"] >= 100, (
         len(fuzzed["loaded"]), fuzzed["refused"])
     fuzzed["proxies"]["activate"]()
+    # stopped and started again only for what was accepted, not for the many refusals
+    assert _loop_starts(fuzzed) - fuzzed["first"] <= fuzzed["accepted"] + 1, (
+        fuzzed["first"], fuzzed["starts"][-1], fuzzed["accepted"], fuzzed["refused"])
     for name in sorted(fuzzed["loaded"]):
         answer = fuzzed["proxies"]["unload"](UnloadComponentRequest(name=name))
         assert answer.success or "is not loaded" in answer.message, (name, answer.message)

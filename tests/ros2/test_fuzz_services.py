@@ -3,17 +3,19 @@ and well-formed, to each of its services: load, unload, tune, lifecycle and the
 triggers (docs/security.md).
 
 Checked: every request is answered, in one line without a traceback; the runner stays
-up; its loop runs on after the fuzz; loads that were accepted unload cleanly; nothing
-is left in /dev/shm. (That a request refused for its fields or the runner's lock does
-not stop the loop is tests/ros2/test_nodes.py's.)
+up; its loop runs on after the fuzz, and was stopped and started again (its
+/diagnostics "loop starts") no more often than requests were accepted: a refused one
+does not stop it; loads that were accepted unload cleanly; nothing is left in /dev/shm.
 """
 
 import os
 import signal
 import string
 import threading
+import time
 
 import pytest
+from diagnostic_msgs.msg import DiagnosticArray
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 from rcl_interfaces.msg import Parameter
@@ -82,8 +84,14 @@ def fuzzed():
                for s in SERVICES}
     clients.update({s: node.create_client(Trigger, f"/{RUNNER}/{s}")
                     for s in ("activate_rt_loop", "deactivate_rt_loop")})
+    starts = []  # (when, the runner's "loop starts") from its /diagnostics
+    node.create_subscription(
+        DiagnosticArray, "/diagnostics",
+        lambda m: starts.extend((time.monotonic(), int(kv.value)) for st in m.status
+                                if st.name == f"rtcf: /{RUNNER}" for kv in st.values
+                                if kv.key == "loop starts"), 100)
     state = {"node": node, "proc": proc, "clients": clients, "infos": infos,
-             "answered": 0, "loaded": set(), "refused": 0}
+             "answered": 0, "loaded": set(), "refused": 0, "accepted": 0, "starts": starts}
     try:
         wait_for(proc, "ready")
         said = []  # the runner's lines, read on: a full pipe would block it
@@ -97,6 +105,43 @@ def fuzzed():
         end(proc)
         node.destroy_node()
         rclpy.shutdown(context=context)
+
+
+def _loop_starts(state):
+    """The runner's "loop starts", as its /diagnostics say it after this moment."""
+    asked = time.monotonic()
+    assert spin_until(state["node"], lambda: any(t > asked for t, _ in state["starts"]),
+                      timeout=30), "no /diagnostics from the runner"
+    return state["starts"][-1][1]
+
+
+def test_refused_loads_are_answered_without_stopping_the_loop(fuzzed):
+    """Each of these is refused by the service itself: the loop runs through them on its
+    time grid. A load that is not refused does stop it (to import and configure)."""
+    good = {"module": "rtcf_examples", "class": "Mimo", "name": "held"}
+    assert _call(fuzzed, "load_component", good).result.successful
+    before = _loop_starts(fuzzed)
+    refusals = {
+        "no such module": ({"module": "no_such_module", "class": "Mimo", "name": "a"},
+                           "module 'no_such_module' is not found"),
+        "no such submodule": ({"module": "rtcf_examples.nope", "class": "Mimo", "name": "b"},
+                              "module 'rtcf_examples.nope' is not found"),
+        "no such class": ({"module": "rtcf_examples", "class": "NoSuchClass", "name": "c"},
+                          "has no class 'NoSuchClass'"),
+        "a doubled name": (good, "is already loaded"),
+        "a malformed remap": (dict(good, name="d", remaps=["x"]), "remap"),
+        "a malformed field": (dict(good, name="e", is_first="yes"), "is_first"),
+    }
+    for what, (fields, said) in refusals.items():
+        answer = _call(fuzzed, "load_component", fields)
+        assert not answer.result.successful, what
+        assert said in answer.result.reason, (what, answer.result.reason)
+    assert _loop_starts(fuzzed) == before, "a refused load stopped the loop"
+    # the count does see a real stop: a load (with none loaded, no loop runs to say it)
+    assert _call(fuzzed, "load_component", dict(good, name="held2")).result.successful
+    assert _loop_starts(fuzzed) > before
+    assert _call(fuzzed, "unload_component", {"name": "held2"}).result.successful
+    fuzzed["loaded"].add("/held")  # kept through the fuzz: a loop runs to say its starts
 
 
 def _call(state, service, fields):
@@ -117,10 +162,14 @@ def _call(state, service, fields):
 @given(request=REQUEST)
 def test_a_thousand_generated_requests_are_each_answered(fuzzed, request):
     service, fields = request
+    if "first" not in fuzzed:
+        fuzzed["first"] = _loop_starts(fuzzed)
     answer = _call(fuzzed, service, fields)
     assert answer is not None
     fuzzed["answered"] += 1
     assert fuzzed["proc"].poll() is None, "the runner ended"
+    if service.endswith("_rt_loop") or answer.result.successful:
+        fuzzed["accepted"] += 1  # may stop the loop and start it again
     if service == "load_component":
         ok = answer.result.successful
         reason = answer.result.reason
@@ -141,6 +190,10 @@ def test_after_the_fuzz_the_loop_ran_on_and_the_loads_unload_cleanly(fuzzed):
     _call(state, "activate_rt_loop", {})
     before = len(state["infos"])
     assert spin_until(node, lambda: len(state["infos"]) > before + 20, timeout=30)
+    # stopped and started again only for what was accepted, not for the many refusals
+    first = state["first"]
+    assert _loop_starts(state) - first <= state["accepted"] + 1, (
+        first, state["starts"][-1], state["accepted"], state["refused"])
     for name in sorted(state["loaded"]):
         answer = _call(state, "unload_component", {"name": name})
         assert answer.result.successful or "is not loaded" in answer.result.reason, (

@@ -182,7 +182,7 @@ def runner_main(argv: list[str] | None = None) -> int:
                 "topics_ignore_for_graph": request.topics_ignore_for_graph,
                 "launcher": request.launcher}, named={"module": "package", "class": "type"})
             spec, _ = _spec(request)  # what can be refused without the worker, is
-            runner.admits("loads", str(request.package), spec.full_name)
+            runner.admits("loads", spec.module, spec.full_name, spec.class_name)
         except RtcfError as exc:
             return srv.LoadComponentResponse(success=False, message=str(exc))
         req = submit("load", request)
@@ -191,7 +191,7 @@ def runner_main(argv: list[str] | None = None) -> int:
     def on_unload(request: Any) -> Any:
         try:
             check_request("unload_component", {"name": request.name})
-            runner.admits("unloads")
+            runner.admits("unloads", component=str(request.name))
         except RequestRefused as exc:
             return srv.UnloadComponentResponse(success=False, message=str(exc))
         req = submit("unload", str(request.name))

@@ -160,7 +160,8 @@ def runner_main(argv: list[str] | None = None) -> int:
                 service, {p.name: _value(p.value) for p in request.parameters})
             what = admitted[service]
             if what != "tunables" or any(k.startswith("param.") for k in values):
-                runner.admits(what, values.get("module") if what == "loads" else None)
+                runner.admits(what, values.get("module") if what == "loads" else None,
+                              values.get("name") if what == "unloads" else None)
             return values
         except RequestRefused as exc:
             response.result = SetParametersResult(successful=False, reason=str(exc))
@@ -172,7 +173,7 @@ def runner_main(argv: list[str] | None = None) -> int:
             return response
         try:  # what can be refused without the worker, is (the loop goes on meanwhile)
             spec, _ = _spec(values)
-            runner.admits("loads", component=spec.full_name)
+            runner.admits("loads", spec.module, spec.full_name, spec.class_name)
         except RtcfError as exc:
             response.result = SetParametersResult(successful=False, reason=str(exc))
             return response

@@ -34,6 +34,7 @@ def health(runner: str, status: LiveStatus, aggregate: TimingAggregate) -> Healt
         ("log records dropped", text(status.log_records_dropped)),
         ("timing rows dropped", text(aggregate.dropped)),
         ("component faults contained", text(status.faults)),
+        ("loop starts", text(status.starts)),
     ]
     values.append(("access", status.access or "open: any request on its domain"))
     for label, stats in (("jitter", summary.jitter_us), ("calc", summary.calc_us)):

@@ -40,6 +40,7 @@ from .._core._lifecycle import (
     decode_outcome,
     refused,
 )
+from .._core._loader import absent_component_class
 from .._core._log import LOG_RECORD_SIZE, LogLevel, LogRecord, PythonLoggingSink, drain_channel
 from .._core._params import ParameterStore
 from .._core._rings import Mailbox, Ring
@@ -105,6 +106,9 @@ class LiveStatus:
     faults: int = 0  # component failures a policy contained (on_error deactivate/restart)
     # who may change the runner: "lock L", "allowed modules ..." (empty: anyone, anything)
     access: str = ""
+    # how often the loop started: a load or unload stops it and starts it again on its
+    # time grid; a refused request must not (docs/security.md)
+    starts: int = 0
 
 
 def access_of(settings: RunnerSettings, locked: bool | None = None) -> str:
@@ -186,6 +190,7 @@ class WorkerRunner:
         # the runner's lock (settings.lock) applies once its loop has run: a launch
         # file's components load before (docs/security.md)
         self.locked = False
+        self.loop_starts = 0  # LiveStatus.starts
         self._lanes: dict[str, WorkerRunner] = {}
         self._lane_of: dict[str, str] = {}  # component -> lane (other than main)
         self._lane_seg: Segment | None = None
@@ -471,6 +476,7 @@ class WorkerRunner:
             elapsed_s=time.monotonic() - started,
             faults=self._ctl[CTL_FAULTS] if self._ctl is not None else 0,
             access=access_of(self.settings, self.locked),
+            starts=self.loop_starts,
         )
 
     # -- the runner's verbs ------------------------------------------------------
@@ -481,12 +487,20 @@ class WorkerRunner:
                 f"{what} while its loop runs; its launch file or parameters set lock"
             )
 
-    def admits(self, what: str, module: str | None = None, component: str | None = None) -> None:
+    def admits(
+        self,
+        what: str,
+        module: str | None = None,
+        component: str | None = None,
+        class_name: str | None = None,
+    ) -> None:
         """RequestRefused if the runner's lock or allowed_modules refuse a request, or a
-        load names a component already loaded, so that a middleware's service answers it
-        without stopping the loop (any thread). ``what``: "loads", "unloads",
+        load names a component already loaded, or a module or class that does not exist
+        (:func:`absent_component_class`, nothing imported), or an unload one that is not
+        loaded, so that a middleware's service
+        answers it without stopping the loop (any thread). ``what``: "loads", "unloads",
         "lifecycle transitions" or "tunables"."""
-        if component is not None and component in self.components:
+        if what == "loads" and component is not None and component in self.components:
             raise RequestRefused(
                 f"component {component[:80]!r}: is already loaded; give each component a "
                 "unique name"
@@ -500,6 +514,15 @@ class WorkerRunner:
             self._refuse_if_locked("changes of tunable parameters", ("all",))
         else:
             self._refuse_if_locked(what)
+        if what == "unloads" and component is not None:
+            try:
+                self._component(component)
+            except RtcfError as exc:
+                raise RequestRefused(str(exc)) from None
+        if module and class_name:  # after the lock: a locked runner tells nothing of it
+            problem = absent_component_class(module, class_name, component=component or "")
+            if problem:
+                raise RequestRefused(problem)
 
     def load(self, spec: ComponentSpec, *, launcher: str = "", refresh: bool = True) -> str:
         """Load a component into its lane's worker. ``refresh=False``: leave the
@@ -980,6 +1003,7 @@ class WorkerRunner:
         return seg, channels
 
     def _on_started(self) -> None:
+        self.loop_starts += 1
         if self.lane == MAIN_LANE and self.settings.lock != "none":
             self.locked = True
         self._events["started_at"] = time.monotonic()
