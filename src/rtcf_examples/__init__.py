@@ -3,6 +3,13 @@
 Load them from a launch file with ``args="rtcf_examples ClassName"``.
 """
 
+from ._arm import (
+    HoldPosition,
+    JointImpedance,
+    JointStateBroadcaster,
+    MujocoArm,
+    TrajectoryInterpolator,
+)
 from ._components import (
     BareMinimum,
     Busy,
@@ -26,13 +33,18 @@ __all__ = [
     "DcMotor",
     "FirstOrderPlant",
     "Gain",
+    "HoldPosition",
     "Identity",
+    "JointImpedance",
+    "JointStateBroadcaster",
     "Logging",
     "Mimo",
+    "MujocoArm",
     "PaperExample",
     "ParameterHandling",
     "Pid",
     "Ramp",
     "Sine",
     "StepSupervisor",
+    "TrajectoryInterpolator",
 ]

@@ -540,8 +540,16 @@ def _rate(s: Series) -> str:
     return text
 
 
-def _lines(ax: Any, s: Series, end_s: float, prefix: str) -> None:
-    """Steps that hold each value until the next write, and the last one to ``end_s``."""
+def _lines(
+    ax: Any,
+    s: Series,
+    end_s: float,
+    prefix: str,
+    colors: list[str] | None = None,
+    linestyle: str = "-",
+) -> None:
+    """Steps that hold each value until the next write, and the last one to ``end_s``;
+    ``colors``: one per element (else the axes' cycle)."""
     t = s.t_s
     values = s.values
     if len(t) and t[-1] < end_s:
@@ -549,13 +557,15 @@ def _lines(ax: Any, s: Series, end_s: float, prefix: str) -> None:
         values = np.vstack([values, values[-1:]])
     sparse = len(s.t_s) <= 60  # few writes: mark where they happened
     for j, label in enumerate(s.labels):
-        name = f"{prefix}{label}" if prefix and label else (prefix or label)
+        name = f"{prefix} {label}" if prefix and label else (prefix or label)
         ax.plot(
             t,
             values[:, j],
             drawstyle="steps-post",
             linewidth=1.2,
+            linestyle=linestyle,
             label=name or "_nolegend_",
+            **({"color": colors[j % len(colors)]} if colors else {}),
         )
         if sparse:
             color = ax.lines[-1].get_color()
@@ -596,7 +606,12 @@ def draw(
         ax = axes[0 if overlay else k]
         if not overlay:
             ax.set_prop_cycle(color=palette[k % len(palette) :] + palette[: k % len(palette)])
-        _lines(ax, s, end_s, s.topic if overlay else "")
+        if overlay and any(len(x.labels) > 1 for x in series):
+            # arrays (joints): one colour per element, one line style per topic, so a
+            # commanded and a measured joint share a colour
+            _lines(ax, s, end_s, s.topic, palette, ("-", "--", ":", "-.")[k % 4])
+        else:
+            _lines(ax, s, end_s, s.topic if overlay else "")
         if not overlay:
             ax.set_title(s.topic, loc="left", fontsize=10, fontweight="bold")
             ax.set_title(f"{s.type_name}, {_rate(s)}", loc="right", fontsize=8, color="0.4")

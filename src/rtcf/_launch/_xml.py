@@ -210,7 +210,8 @@ def _infer_ros1(value: str) -> Any:
 
 
 def _infer_ros2(value: str) -> Any:
-    """ROS 2 launch: YAML-style inference limited to bool, int and float."""
+    """ROS 2 launch: YAML-style inference limited to bool, int and float, and lists
+    of one of them (ROS 2 parameters' arrays)."""
     lowered = value.strip().lower()
     if lowered in ("true", "false"):
         return lowered == "true"
@@ -220,6 +221,9 @@ def _infer_ros2(value: str) -> Any:
         return value
     if isinstance(loaded, (int, float)) and not isinstance(loaded, bool):
         return loaded
+    if isinstance(loaded, list) and loaded and len({type(v) for v in loaded}) == 1:
+        if isinstance(loaded[0], (bool, int, float, str)):  # value="[1.0, 2.0]": an array
+            return loaded
     return value
 
 

@@ -195,7 +195,10 @@ class Ros2Bridge:
         self._owns_context = node is None
         if node is None:
             self.context = rclpy.Context()
-            rclpy.init(args=args, context=self.context, signal_handler_options=_no_signals(rclpy))
+            # never sys.argv (rclpy's default): rtcf launch's name:=value launch arguments
+            # would be taken for remap rules (and warned about as deprecated syntax)
+            rclpy.init(args=args if args is not None else [], context=self.context,
+                       signal_handler_options=_no_signals(rclpy))
             node = Node(name, namespace=namespace, context=self.context)
         else:
             self.context = node.context
