@@ -114,9 +114,28 @@ class MujocoArm(rtcf.Component):
         self.gravity.write(data.qfrc_bias.copy())
 
     def safe_stop(self) -> bool:
-        # a real driver switches its drives to holding the current position here (zero
-        # velocity), never to zero torque: the arm would fall. The model steps no more.
-        self.log.warning("safe stop: holding %s", np.round(self.data.qpos, 3).tolist())
+        """Hold the arm where it is, as a real driver switches its drives to holding
+        position (zero velocity) when its controller stops: each motor becomes a
+        position servo about the position of this moment, with the torque that holds
+        the arm there against gravity. Zero torque would let the arm fall.
+        ``~hold_stiffness`` and ``~hold_damping`` are the servos' gains."""
+        mujoco, model, data = self.mujoco, self.model, self.data
+        kp = float(self.params.get("~hold_stiffness", 300.0))
+        kv = float(self.params.get("~hold_damping", 30.0))
+        moving = data.qvel.copy()
+        data.qvel[:] = 0.0
+        mujoco.mj_forward(model, data)  # the bias forces at rest: gravity alone
+        gravity = data.qfrc_bias.copy()
+        data.qvel[:] = moving
+        for i in range(model.nu):
+            dof = model.jnt_dofadr[model.actuator_trnid[i, 0]]
+            model.actuator_gaintype[i] = mujoco.mjtGain.mjGAIN_FIXED
+            model.actuator_biastype[i] = mujoco.mjtBias.mjBIAS_AFFINE
+            model.actuator_gainprm[i, 0] = kp
+            model.actuator_biasprm[i, :3] = (gravity[dof], -kp, -kv)
+            model.actuator_ctrllimited[i] = 0
+            data.ctrl[i] = data.qpos[model.jnt_qposadr[model.actuator_trnid[i, 0]]]
+        self.log.warning("safe stop: holding %s", np.round(data.qpos, 3).tolist())
         return True
 
 

@@ -128,6 +128,45 @@ def test_a_failing_trajectory_is_replaced_and_the_arm_held_where_it_was():
     assert np.array_equal(reference[-1], reference[1600])  # one held reference
 
 
+def test_a_safe_stop_leaves_the_arm_held_against_gravity_not_falling():
+    """A fault stops the loop while the arm moves: MujocoArm's safe_stop turns its
+    motors into position servos about where it is, with gravity held. Stepped on after
+    the stop, the arm comes to rest there; with zero torque, as a naive driver would
+    leave it, the arm falls."""
+    import mujoco
+
+    from rtcf_examples import TrajectoryInterpolator
+    from rtcf_examples._arm import shipped_model
+
+    arms = []
+
+    class Arm(MujocoArm):
+        def configure(self):
+            super().configure()
+            arms.append(self)
+
+    with pytest.raises(rtcf.ComponentError, match=r"failing at t=0\.5"):
+        run_components([
+            ComponentSpec("hardware", Arm, is_first=True,
+                          params={"initial_positions": list(START)}),
+            ComponentSpec("controller", JointImpedance),
+            ComponentSpec("trajectory", TrajectoryInterpolator, params={
+                "waypoints": [0.5, 0.8, 0.4], "fail_after_s": 0.5}),
+        ], 1000, frequency=1000.0)
+    [arm] = arms
+    stopped_at = arm.data.qpos.copy()
+    assert np.abs(arm.data.qvel).max() > 0.1  # it was moving when the loop stopped
+    naive = mujoco.MjModel.from_xml_path(shipped_model())  # motors at zero torque
+    falling = mujoco.MjData(naive)
+    falling.qpos[:], falling.qvel[:] = arm.data.qpos, arm.data.qvel
+    for _ in range(1000):  # a second
+        mujoco.mj_step(arm.model, arm.data)
+        mujoco.mj_step(naive, falling)
+    assert np.abs(arm.data.qpos - stopped_at).max() < 0.05  # held near where it stopped
+    assert np.abs(arm.data.qvel).max() < 1e-3  # and still
+    assert np.abs(falling.qpos - stopped_at).max() > 0.3  # fell
+
+
 def test_another_driver_slots_in_by_the_hardware_argument(monkeypatch):
     monkeypatch.syspath_prepend(str(FIXTURES))
     trace = run_launch("rtcf_examples arm.launch", 2000,
