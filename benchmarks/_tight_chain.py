@@ -76,6 +76,7 @@ def main() -> None:
     iters = args.iterations
     out = {
         "hot_path": _hotpath.HOT_PATH,
+        "component_clock": _hotpath.component_clock()[0],
         "plain": best_ns_per_iteration(plain, iters, args.repeats) / n,
         "plain_timed": best_ns_per_iteration(plain_timed, iters, args.repeats) / n,
         # the loop's own measure: the calculation's p50 (per-component timing included)

@@ -37,6 +37,7 @@ TARGET_RATIO = 1.5
 # system -> row label; rtcf's two paths and the two plain references
 SYSTEMS = {
     "compiled": "rtcf, compiled hot path",
+    c.CLOCK_GETTIME: "rtcf, compiled, components timed by clock_gettime (not the TSC)",
     "pure": "rtcf, pure Python hot path (RTCF_PURE_PYTHON=1)",
     "plain": "plain objects",
     "plain_timed": "plain objects, timed per component",
@@ -82,21 +83,26 @@ def run_plain(timed: bool, duration: float) -> dict[str, Any]:
                            str(COMPONENTS), *(["--timed"] if timed else []))
 
 
-def run_tight(pure: bool) -> dict[str, Any]:
+def run_tight(pure: bool, clock_gettime: bool = False) -> dict[str, Any]:
     """The chain back to back in one process (``_tight_chain.py``): warm caches."""
     cmd = [sys.executable, str(Path(__file__).with_name("_tight_chain.py")),
            "--components", str(COMPONENTS), "--cpu", str(c.RT_CPU), "--priority",
            str(c.PRIORITY)]
     env = dict(os.environ)
     env.pop("RTCF_PURE_PYTHON", None)
+    env.pop("RTCF_COMPONENT_CLOCK", None)
     if pure:
         env["RTCF_PURE_PYTHON"] = "1"
+    if clock_gettime:
+        env["RTCF_COMPONENT_CLOCK"] = "monotonic"
     done = subprocess.run(cmd, capture_output=True, text=True, env=env, timeout=600)
     if done.returncode != 0:
         raise c.BenchmarkError(f"tight loops failed (exit {done.returncode}): {done.stderr}")
     data: dict[str, Any] = json.loads(done.stdout)
     if data["hot_path"] != ("Python" if pure else "compiled"):
         raise c.BenchmarkError(f"tight loops ran the {data['hot_path']} hot path, not the asked")
+    if clock_gettime and data["component_clock"] != "CLOCK_MONOTONIC":
+        raise c.BenchmarkError("tight loops timed components by the TSC, not clock_gettime")
     return data
 
 
@@ -118,13 +124,14 @@ def main() -> int:
             order = list(SYSTEMS) if r % 2 == 0 else list(reversed(SYSTEMS))
             for system in order:
                 print(f"round {r + 1}/{rounds}: {system}, {duration:g} s ...", file=sys.stderr)
-                if system in c.HOT_PATHS:
+                if system in c.HOT_PATH_VARIANTS:
                     report = work / f"report-{system}-{r}"
                     runs[system].append(run_rtcf(system, launch, duration, report, wrapper))
                 else:
                     runs[system].append(run_plain(system == "plain_timed", duration))
         print("tight loops (no sleep) ...", file=sys.stderr)
-        tight = {"compiled": run_tight(False), "pure": run_tight(True)}
+        tight = {"compiled": run_tight(False), "pure": run_tight(True),
+                 c.CLOCK_GETTIME: run_tight(False, clock_gettime=True)}
     elapsed = time.perf_counter() - started
 
     def median(system: str, key: str) -> float:
@@ -170,6 +177,7 @@ def main() -> int:
     plain_timed_warm = min(t["plain_timed"] for t in tight.values())
     warm = {
         "rtcf, compiled hot path": tight["compiled"]["rtcf"],
+        "rtcf, compiled, components timed by clock_gettime": tight[c.CLOCK_GETTIME]["rtcf"],
         "rtcf, pure Python hot path": tight["pure"]["rtcf"],
         "plain objects": plain_warm,
         "plain objects, timed per component": plain_timed_warm,

@@ -35,9 +35,12 @@ def sim_topics(topics):
 
 
 def clock(node, steps=21):
-    """1 s of /clock time from 100 s on, in steps of 50 ms, every 20 ms of wall time."""
+    """1 s of /clock time from 100 s on, in steps of 50 ms, every 20 ms of wall time;
+    100 s itself held for 1 s of wall time first, so that every process of the loop
+    (its lanes too) has seen it, even on a loaded machine."""
     proc = start(
-        sys.executable, FIXTURES / "clock_publisher.py", START_NS, 50_000_000, steps, 0.02, node
+        sys.executable, FIXTURES / "clock_publisher.py", START_NS, 50_000_000, steps, 0.02, node,
+        1.0,
     )
     _, err = read_rest(proc)
     assert proc.returncode == 0, err

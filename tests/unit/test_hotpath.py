@@ -8,6 +8,7 @@ must have been built (CI has a C compiler everywhere it runs).
 from __future__ import annotations
 
 import gc
+import os
 import sys
 from array import array
 from collections.abc import Callable
@@ -246,6 +247,84 @@ def test_a_plan_swapped_by_a_feeder_applies_in_the_same_iteration(m: ModuleType)
     )
     calc.iterate(0, 0, 0)
     assert ran == ["new"]
+
+
+@pytest.mark.parametrize("per_cycle", ["measured", 0.0])
+def test_on_clock_monotonic_components_are_timed_by_the_cycle_counter_in_nanoseconds(
+    per_cycle: Any,
+) -> None:
+    """Where the TSC times components (the kernel's clocksource), each column is still
+    nanoseconds: a 2 ms sleep in one update and nothing in the other are told apart by
+    their size, and the iteration's start and end stay on CLOCK_MONOTONIC."""
+    import time
+
+    ns = _compiled.ns_per_cycle() if per_cycle == "measured" else per_cycle
+    plans = ((((F, lambda: time.sleep(0.002)), (F + 1, lambda: None)), ()),)
+    width = F + 3
+    words = array("q", bytes(8 * width))
+    calc = _compiled.Calculation(
+        _Executor(plans), _compiled.LoopState(1000.0), (), time.monotonic_ns,
+        lambda d: None, True, True, array("q", [-1]), words, array("q", bytes(8 * width)),
+        0, 0, width, COLUMNS, ns,
+    )
+    deadline = time.monotonic_ns()
+    t = calc.iterate(0, deadline, 0)
+    after = time.monotonic_ns()
+    assert deadline <= t <= after  # the end: CLOCK_MONOTONIC
+    slept, nothing = words[F], words[F + 1]
+    assert 2_000_000 <= slept < 50_000_000, slept
+    assert 0 <= nothing < 200_000, nothing
+    assert words[3] >= slept  # the iteration's calculation covers its components
+    calc.release()
+
+
+def test_the_component_clock_is_the_tsc_exactly_where_the_kernel_uses_it() -> None:
+    which, per_cycle = _hotpath.component_clock()
+    try:
+        with open(_hotpath._CLOCKSOURCE) as f:
+            source = f.read().strip()
+    except OSError:
+        source = ""
+    tsc = source == "tsc" and _hotpath.HOT_PATH == "compiled" and os.environ.get(
+        "RTCF_COMPONENT_CLOCK", "") == "" and \
+        _compiled.ns_per_cycle() > 0
+    assert (which, per_cycle > 0) == (("TSC", True) if tsc else ("CLOCK_MONOTONIC", False))
+    if tsc:  # a plausible counter: between 100 MHz and 10 GHz
+        assert 0.1 < per_cycle < 10.0
+
+
+def test_the_compiled_plans_hold_their_updates_only_while_they_are_the_executors() -> None:
+    """The compiled Calculation keeps executor.plans as arrays (a bound method as its
+    function and self) until the plans change: swapped every iteration a thousand
+    times, no reference is leaked, and once it is gone none is left."""
+
+    class Component:
+        def __init__(self) -> None:
+            self.calls = 0
+
+        def update(self) -> None:
+            self.calls += 1
+
+    a, b = Component(), Component()
+    plans_a = ((((F, a.update),), ()),)
+    plans_b = ((((F + 1, b.update),), (F,)),)
+    ex = _Executor(plans_a)
+    base_a, base_b = sys.getrefcount(a), sys.getrefcount(b)
+    calc = _compiled.Calculation(
+        ex, _compiled.LoopState(), (), lambda: 0, lambda d: None, False, False,
+        array("q", [-1]), array("q", bytes(8 * (F + 3))), array("q", bytes(8 * (F + 3))),
+        0, 0, F + 3, COLUMNS,
+    )
+    for k in range(1000):
+        ex.plans = plans_a if k % 2 == 0 else plans_b
+        calc.iterate(k, 0, 0)
+    assert (a.calls, b.calls) == (500, 500)
+    # the last plans (b's) are held, compiled: its function and self, once more
+    assert sys.getrefcount(a) == base_a
+    assert sys.getrefcount(b) == base_b + 1
+    del calc
+    gc.collect()
+    assert (sys.getrefcount(a), sys.getrefcount(b)) == (base_a, base_b)
 
 
 def test_the_compiled_calculation_refuses_rows_and_plans_outside_its_words() -> None:

@@ -189,7 +189,7 @@ def cmd_check(ns: argparse.Namespace) -> int:
                         f"({' '.join(target.settings.allowed_modules)})",
                         file=target.location.file, line=target.location.line)
             print(
-                f"{deployment.source}: OK: runner {target.name}, {len(graph.nodes)} components, "
+                f"{deployment.source}: OK: runner {target.name}, {len(graph.order)} components, "
                 f"{len(graph.edges)} connections, order: " + " -> ".join(graph.order)
             )
             if access_of(target.settings):
@@ -416,6 +416,8 @@ def _say_realtime(realtime: dict[str, Any], simulated: bool) -> None:
     """One line for what took effect, one per setting that did not (with its reason)."""
     hot = realtime.get("hot_path") or {}
     path = "hot path compiled (C)" if hot.get("path") == "compiled" else "hot path in Python"
+    if hot.get("component_clock") == "TSC":
+        path += ", components timed by the TSC"
     if hot.get("path") == "Python" and hot.get("why") != _hotpath.FORCED:
         _say(f"warning: the loop's hot path runs in Python, several times slower per "
              f"component: {hot.get('why')}")

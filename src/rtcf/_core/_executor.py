@@ -27,7 +27,7 @@ from typing import NamedTuple
 
 from ._clock import Clock
 from ._faults import WatchdogTripped
-from ._hotpath import Calculation
+from ._hotpath import Calculation, component_clock
 from ._interpreted import SKIPPED as SKIPPED  # a component's column when it did not run
 from ._loop_state import LoopState
 from ._timing import (
@@ -291,6 +291,7 @@ class Executor:
             self, state, feeders, now, sleep_until, native_now, native_sleep, running, words,
             scratch, origin, ros_offset, timing.width,
             (COL_ITERATION, COL_SCHEDULED, COL_JITTER, COL_CALC, COL_PHASE),
+            component_clock()[1] if native_now else 0.0,
         )
         iterate = calculation.iterate
         running[0] = -1

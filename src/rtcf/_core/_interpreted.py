@@ -189,6 +189,7 @@ class Calculation:
         ros_offset: int,
         width: int,
         columns: tuple[int, int, int, int, int],
+        ns_per_cycle: float = 0.0,  # (the compiled path's cycle counter; none here)
     ) -> None:
         self._executor = executor
         self._state = state

@@ -103,7 +103,9 @@ class RealtimeReport:
             "gc": gc_text,
             "applied": [asdict(i) for i in self.items],
             # which hot path this process's loop runs: compiled, or Python and why
-            "hot_path": {"path": _hotpath.HOT_PATH, "why": _hotpath.WHY},
+            "hot_path": {"path": _hotpath.HOT_PATH, "why": _hotpath.WHY,
+                         # what times each component: the TSC, or clock_gettime
+                         "component_clock": _hotpath.component_clock()[0]},
         }
 
     def lines(self) -> list[str]:
