@@ -381,6 +381,7 @@ class HoldPosition(rtcf.Component):
         self.position_reference = self.add_output("position_reference", np.ndarray)
         self.velocity_reference = self.add_output("velocity_reference", np.ndarray)
         self.held: np.ndarray | None = None
+        self.still: np.ndarray | None = None  # zero velocity, made once
 
     def start(self) -> None:
         self.held = None
@@ -391,6 +392,7 @@ class HoldPosition(rtcf.Component):
             if q is None:
                 return
             self.held = q.copy()
+            self.still = np.zeros_like(self.held)
             self.log.warning("holding the arm at %s", np.round(self.held, 3).tolist())
         self.position_reference.write(self.held)
-        self.velocity_reference.write(np.zeros_like(self.held))
+        self.velocity_reference.write(self.still)

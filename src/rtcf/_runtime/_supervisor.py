@@ -487,6 +487,16 @@ class WorkerRunner:
                 f"{what} while its loop runs; its launch file or parameters set lock"
             )
 
+    def _refuse_module(self, module: str, of: str = "") -> None:
+        """RequestRefused if allowed_modules refuse ``module`` (before anything imports
+        it); ``of``: the component it is for, to name in the refusal."""
+        if not self.settings.allows_module(module):
+            whose = f" of {of[:80]!r}" if of else ""
+            raise RequestRefused(
+                f"runner {self.name}: module {module[:80]!r}{whose} is not in its "
+                f"allowed_modules ({' '.join(self.settings.allowed_modules)})"
+            )
+
     def admits(
         self,
         what: str,
@@ -497,19 +507,15 @@ class WorkerRunner:
         """RequestRefused if the runner's lock or allowed_modules refuse a request, or a
         load names a component already loaded, or a module or class that does not exist
         (:func:`absent_component_class`, nothing imported), or an unload one that is not
-        loaded, so that a middleware's service
-        answers it without stopping the loop (any thread). ``what``: "loads", "unloads",
-        "lifecycle transitions" or "tunables"."""
+        loaded, so that a middleware's service answers it without stopping the loop (any
+        thread). ``what``: "loads", "unloads", "lifecycle transitions" or "tunables"."""
         if what == "loads" and component is not None and component in self.components:
             raise RequestRefused(
                 f"component {component[:80]!r}: is already loaded; give each component a "
                 "unique name"
             )
-        if module is not None and not self.settings.allows_module(module):
-            raise RequestRefused(
-                f"runner {self.name}: module {module[:80]!r} is not in its allowed_modules "
-                f"({' '.join(self.settings.allowed_modules)})"
-            )
+        if module is not None:
+            self._refuse_module(module)
         if what == "tunables":
             self._refuse_if_locked("changes of tunable parameters", ("all",))
         else:
@@ -529,12 +535,9 @@ class WorkerRunner:
         introspection (the order and the graph over all components) for one
         :meth:`refresh_introspection` after a batch of loads (a launch file's: once per
         load, a thousand components took 20 s)."""
-        module = spec.cls.__module__ if spec.cls is not None else spec.module
-        if not self.settings.allows_module(module):  # before the worker imports it
-            raise RequestRefused(
-                f"runner {self.name}: module {module[:80]!r} of {spec.full_name[:80]!r} is "
-                f"not in its allowed_modules ({' '.join(self.settings.allowed_modules)})"
-            )
+        # before the worker imports it
+        self._refuse_module(spec.cls.__module__ if spec.cls is not None else spec.module,
+                            spec.full_name)
         self._refuse_if_locked("loads")
         lane = lane_of(spec.lane)
         if lane != self.lane and self.lane == MAIN_LANE:  # another lane's worker loads it
