@@ -429,3 +429,65 @@ def test_a_full_ring_counts_the_drop_and_a_bad_value_leaves_it_as_it_was() -> No
     tap.release()
     tap(5.0)  # released: nothing happens
     assert len(ring) == 2
+
+
+def test_what_the_loop_prefetches_is_a_hint_that_changes_nothing_and_holds_nothing() -> None:
+    """The compiled loop prefetches each upcoming component's object, values, ports and
+    slots, found when the plans are compiled. Whatever a component holds there (a
+    real port table, one that is not a dict, a lookup that raises, ports rewired or
+    freed since), every update runs as it would without, no exception is left behind,
+    and no reference to a port or slot is taken."""
+
+    class Chain:
+        def __init__(self, src: Any) -> None:
+            self._rtcf_inputs = {"in": _compiled.InputPort("/c", "in", float)}
+            self._rtcf_outputs = {"out": _compiled.OutputPort("/c", "out", float)}
+            self._rtcf_inputs["in"]._connect(src)
+
+        def update(self) -> None:
+            self._rtcf_outputs["out"].write((self._rtcf_inputs["in"].read() or 0.0) + 1.0)
+
+    looked_up: list[str] = []
+
+    class Odd:
+        _rtcf_inputs = [1, 2]  # not a dict
+
+        def __getattr__(self, name: str) -> Any:
+            looked_up.append(name)  # a component's own __getattr__: not for a hint
+            raise AttributeError(name)
+
+        def update(self) -> None:
+            pass
+
+    class NoTables:
+        __slots__ = ()
+
+        def update(self) -> None:
+            pass
+
+    head = _compiled.OutputPort("/h", "out", float)
+    chain = [Chain(head)]
+    for _ in range(9):
+        chain.append(Chain(chain[-1]._rtcf_outputs["out"]))
+    ports = [p for c in chain for t in (c._rtcf_inputs, c._rtcf_outputs) for p in t.values()]
+    before = [sys.getrefcount(p) for p in ports]
+    updates = [c.update for c in chain[:5]] + [Odd().update, NoTables().update]
+    updates += [c.update for c in chain[5:]]
+    plans = ((tuple((F + k, u) for k, u in enumerate(updates)), ()),)
+    width = F + len(updates)
+    calc = _compiled.Calculation(
+        _Executor(plans), _compiled.LoopState(), (), lambda: 0, lambda d: None, False, False,
+        array("q", [-1]), array("q", bytes(8 * width)), array("q", bytes(8 * width)),
+        0, 0, width, COLUMNS,
+    )
+    head.write(0.0)
+    calc.iterate(0, 0, 0)
+    assert chain[-1]._rtcf_outputs["out"]._slot.value == 10.0
+    assert looked_up == []
+    assert [sys.getrefcount(p) for p in ports] == before
+    # rewired after the plans were compiled: the slots the loop knew of are gone
+    chain[3]._rtcf_inputs["in"]._connect(head)
+    head.write(100.0)
+    calc.iterate(1, 0, 0)
+    assert chain[-1]._rtcf_outputs["out"]._slot.value == 107.0
+    calc.release()
