@@ -5,7 +5,10 @@ that sleeps between iterations pays to bring its working set back (the real-time
 Pinned to one CPU at SCHED_FIFO, garbage collector frozen and off; best of repeats.
 Prints one JSON object: ns per component for plain objects, plain objects timed per
 component, and rtcf (its Runner, the hot path RTCF_PURE_PYTHON selects; the recorded
-calculation p50 / components).
+calculation p50 / components). Two more split rtcf's cost in two, for where the
+nanoseconds go: rtcf's components (ports) called by a bare Python ``for`` loop, and the
+plain objects called by rtcf's own loop (its ``Calculation``: a call from C, the
+component clock, the timing row, the running word; recorded calculation p50).
 
     python benchmarks/_tight_chain.py --cpu 1 --priority 80 [--components 200]
 """
@@ -18,9 +21,47 @@ import json
 import os
 import time
 from array import array
+from collections.abc import Callable
 
 from _common import NoSleepClock, best_ns_per_iteration
 from _plain_chain import PlainGain, PlainRamp
+
+
+def _plain_in_rtcf_loop(updates: tuple[Callable[[], None], ...]) -> Callable[[int], float]:
+    """The plain objects' updates run by rtcf's own loop (its Calculation, the hot path
+    RTCF_PURE_PYTHON selects, each update timed by the clock rtcf would use): returns
+    a function that runs ``iterations`` back to back and gives their calculation p50."""
+    from rtcf._core import _hotpath
+    from rtcf._core._timing import (
+        COL_CALC,
+        COL_ITERATION,
+        COL_JITTER,
+        COL_PHASE,
+        COL_SCHEDULED,
+        FIXED_COLUMNS,
+    )
+
+    class Plans:  # what the Calculation reads of an executor
+        plans = ((tuple((FIXED_COLUMNS + k, u) for k, u in enumerate(updates)), ()),)
+
+    width = FIXED_COLUMNS + len(updates)
+    words = array("q", bytes(8 * width))
+    calculation = _hotpath.Calculation(
+        Plans(), _hotpath.LoopState(500.0), (), time.monotonic_ns, lambda d: None, True, False,
+        array("q", [-1]), words, array("q", bytes(8 * width)), 0, 0, width,
+        (COL_ITERATION, COL_SCHEDULED, COL_JITTER, COL_CALC, COL_PHASE),
+        _hotpath.component_clock()[1],
+    )
+
+    def run(iterations: int) -> float:
+        calc = array("q", bytes(8 * iterations))
+        iterate = calculation.iterate
+        for i in range(iterations):
+            iterate(i, 0, 0)  # a deadline long past: no sleep
+            calc[i] = words[COL_CALC]
+        return float(sorted(calc)[iterations // 2])
+
+    return run
 
 
 def main() -> None:
@@ -70,6 +111,14 @@ def main() -> None:
         runner.load(rtcf.ComponentSpec(f"c{k}", cls=Gain,
                                        remaps={"in_port": f"/t{k - 1}", "out_port": f"/t{k}"}))
     runner.run(100)  # start hooks, compile, warm
+    components = tuple(runner.components[name].update for name in runner.order)
+
+    def rtcf_components_bare(iterations: int) -> None:
+        for _ in range(iterations):
+            for u in components:
+                u()
+
+    plain_in_loop = _plain_in_rtcf_loop(updates)
     gc.collect()
     gc.freeze()
     gc.disable()
@@ -84,6 +133,9 @@ def main() -> None:
             runner.run(iters, drain_logs_every_iteration=False).timing.calc_us["p50"]
             for _ in range(args.repeats)
         ) * 1e3 / n,
+        "rtcf_components_bare": best_ns_per_iteration(rtcf_components_bare, iters, args.repeats)
+        / n,
+        "plain_in_rtcf_loop": min(plain_in_loop(iters) for _ in range(args.repeats)) / n,
     }
     runner.shutdown()
     print(json.dumps(out))

@@ -106,6 +106,33 @@ def run_tight(pure: bool, clock_gettime: bool = False) -> dict[str, Any]:
     return data
 
 
+def breakdown(
+    tight: dict[str, Any], per_ns: dict[str, float]
+) -> tuple[dict[str, float], list[list[str]]]:
+    """rtcf's cost per component, in parts: from plain objects in a Python loop (warm),
+    what rtcf's loop adds around the same objects, what its ports add to the same bare
+    loop, what the two add together beyond that, and what sleeping adds."""
+    plain, rtcf = tight["plain"], tight["rtcf"]
+    loop = tight["plain_in_rtcf_loop"] - plain
+    ports = tight["rtcf_components_bare"] - plain
+    parts = {
+        "plain objects, called by a Python for loop (warm)": plain,
+        "+ rtcf's loop around them: a call from C, the component clock, the timing row, "
+        "the running word, the prefetch": loop,
+        "+ rtcf's ports instead of attributes: two C method calls, a component's larger "
+        "object": ports,
+        "+ the two together, beyond their sum": rtcf - plain - loop - ports,
+        "= rtcf, warm": rtcf,
+        "+ the sleep between iterations: lines that come back from far caches": (
+            per_ns["compiled"] - rtcf),
+        "= rtcf in the 500 Hz loop": per_ns["compiled"],
+        "(the plain objects in their 500 Hz loop, for reference; their sleep adds)": (
+            per_ns["plain"] - plain),
+    }
+    return parts, [[k, f"{v:+.1f}" if k.startswith(("+", "(")) else f"{v:.1f}"]
+                   for k, v in parts.items()]
+
+
 def main() -> int:
     p = c.parser(__doc__.splitlines()[0], 10)
     p.add_argument("--rounds", type=int, default=None, metavar="N", help="3; 1 with --quick")
@@ -186,6 +213,9 @@ def main() -> int:
         ["in one process, no sleep (warm caches)", "ns per component", "/ plain"],
         [[k, c.fmt(v), c.fmt_ratio(c.ratio(v, plain_warm))] for k, v in warm.items()],
     )
+    where, where_rows = breakdown(tight["compiled"], per_ns)
+    where_tab = c.table(["where rtcf's nanoseconds per component go (compiled)", "ns"],
+                        where_rows)
     print(f"machine: {c.machine_line(machine)}")
     print(
         f"median of {rounds} round(s) of {duration:g} s per system; "
@@ -194,6 +224,7 @@ def main() -> int:
     print(tab)
     print(steal)
     print(tight_tab)
+    print(where_tab)
     print(f"verdict: {verdict}")
     print(f"total {elapsed:.0f} s")
     data: dict[str, Any] = {
@@ -212,6 +243,7 @@ def main() -> int:
         "target_met": met,
         "runs": runs,
         "tight_loops_ns_per_component": warm,
+        "where_the_ns_go": where,
         "elapsed_s": elapsed,
     }
     path = c.write_results(NAME, data, args.quick)
@@ -246,6 +278,13 @@ def main() -> int:
                 "calculation p50 / 200):",
                 "",
                 tight_tab,
+                "",
+                "Where rtcf's nanoseconds per component go, from the same runs: the plain "
+                "objects called by rtcf's own loop (its compiled `Calculation`), and rtcf's "
+                "components (ports) called by a bare `for` loop, both warm; then what the "
+                "sleep between iterations adds to each:",
+                "",
+                where_tab,
                 "",
                 verdict + ".",
             ]

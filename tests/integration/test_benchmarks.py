@@ -21,14 +21,15 @@ ROOT = Path(__file__).resolve().parents[2]
         ("scaling", re.compile(r"\| 1000 +\| 200 +\| pure ")),
         ("channels", "| mailbox try_read_into "),
         ("lanes", "| LET lane "),
-        # all four rows, and a ratio that is a number (a failed run prints "-")
+        # all four rows, a ratio that is a number (a failed run prints "-"), the breakdown
         (
             "hot_path",
             re.compile(
                 r"(?s)\| rtcf, compiled hot path .*\| rtcf, pure Python hot path .*"
                 r"\| plain objects .*\| plain objects, timed per component .*"
                 r"\| in one process, no sleep \(warm caches\) .*\| rtcf, compiled hot path +\| "
-                r"\d+\.\d .*verdict: rtcf's compiled hot path costs \d+\.\d+x plain objects"
+                r"\d+\.\d .*\| = rtcf, warm +\| \d+\.\d .*"
+                r"verdict: rtcf's compiled hot path costs \d+\.\d+x plain objects"
             ),
         ),
     ],

@@ -384,3 +384,17 @@ def test_fallback_takes_over_the_outputs_and_the_readers_go_on() -> None:
     assert "took out of the schedule: /ctrl; /backup took over its outputs" in " ".join(
         sink.lines
     )
+
+
+def test_a_fault_says_what_it_contained_by_its_cause_not_its_words() -> None:
+    """An update that raised is told as one; a LET lane's overrun windows in the
+    watchdog's own words, whatever an exception's message happens to say."""
+    from rtcf._core._faults import LET_OVERRUNS, Fault
+
+    words = "watchdog max_let_overruns=2: 3 windows not finished in time"
+    raised = Fault("/c", 7, f"RuntimeError: {words}", "deactivated", ["/c"])
+    overran = Fault("/c", 7, words, "deactivated", ["/c"], cause=LET_OVERRUNS)
+    assert raised.describe().startswith(
+        f"component '/c': update() raised RuntimeError: {words} at iteration 7; took out")
+    assert overran.describe().startswith(f"component '/c': {words}; took out")
+    assert Fault(**overran.to_dict()) == overran  # as the supervisor reads it back

@@ -643,16 +643,23 @@ static const void *
 attribute_values(PyObject *self)
 {
     PyTypeObject *t = Py_TYPE(self);
-    if (!(t->tp_flags & Py_TPFLAGS_MANAGED_DICT))
-        return NULL;
+#ifdef Py_TPFLAGS_MANAGED_DICT
+    if (t->tp_flags & Py_TPFLAGS_MANAGED_DICT) {
 #if PY_VERSION_HEX < 0x030C0000
-    return ((void **)self)[-4]; /* 3.11: the values pointer, before the dict's */
+        return ((void **)self)[-4]; /* 3.11: the values pointer, before the dict's */
 #elif PY_VERSION_HEX < 0x030D0000
-    uintptr_t dorv = ((uintptr_t *)self)[-3]; /* 3.12: values tagged by -1, or a dict */
-    return (const void *)((dorv & 1) ? dorv + 1 : dorv);
+        uintptr_t dorv = ((uintptr_t *)self)[-3]; /* 3.12: values tagged by -1, or a dict */
+        return (const void *)((dorv & 1) ? dorv + 1 : dorv);
 #else
-    return (const char *)self + t->tp_basicsize; /* 3.13: the values follow the object */
+        if (t->tp_flags & Py_TPFLAGS_INLINE_VALUES) /* 3.13: values follow the object */
+            return (const char *)self + t->tp_basicsize;
+        return ((void **)self)[-3]; /* else its dict */
 #endif
+    }
+#endif
+    if (t->tp_dictoffset > 0) /* 3.10, or a class with __dict__ in its layout */
+        return *(void **)((char *)self + t->tp_dictoffset);
+    return NULL;
 }
 
 /* a component's ports (its _rtcf_inputs and _rtcf_outputs tables) and their slots */

@@ -39,7 +39,8 @@ DEACTIVATE = "deactivate"
 RESTART = "restart"
 POLICIES = (STOP, DEACTIVATE, RESTART)
 DEFAULT_MAX_RESTARTS = 3
-LET_OVERRUNS = "watchdog max_let_overruns"  # how a Fault of a LET lane's windows starts
+# what a Fault contained: an update that raised, or a LET lane's windows that overran
+RAISED, LET_OVERRUNS = "raised", "let_overruns"
 
 
 @dataclass(frozen=True)
@@ -128,12 +129,13 @@ class Fault:
     action: str  # "deactivated", "restarted", "fallback"
     taken_out: list[str] = field(default_factory=list)
     fallback: str = ""
+    cause: str = RAISED  # or LET_OVERRUNS: error is the watchdog's own words
 
     def to_dict(self) -> dict[str, Any]:
         return asdict(self)
 
     def describe(self) -> str:
-        if self.error.startswith(LET_OVERRUNS):  # its windows, not an exception
+        if self.cause == LET_OVERRUNS:  # its windows, not an exception
             text = f"component {self.component!r}: {self.error}; "
         else:
             text = f"component {self.component!r}: update() raised {self.error} at iteration "

@@ -18,14 +18,16 @@ from ._component import Component, _attach, overrides
 from ._errors import ComponentError, ConfigurationError, Location, LoopError, RtcfError
 from ._executor import ABORT, Executor, StopFlag, UpdateFailure
 from ._faults import DEACTIVATE as ON_ERROR_DEACTIVATE
-from ._faults import RESTART as ON_ERROR_RESTART
 from ._faults import (
+    LET_OVERRUNS,
+    RAISED,
     FailurePolicy,
     Fault,
     SafeStopOutcome,
     WatchdogTripped,
     downstream,
 )
+from ._faults import RESTART as ON_ERROR_RESTART
 from ._graph import Graph, GraphNode, PortInfo, build_graph
 from ._lane_names import MAIN_LANE, validate_lane_name
 from ._lanes import (
@@ -1077,8 +1079,9 @@ class Runner:
                 f"{exc} at iteration {failure.iteration}; the loop was stopped"
             ) from exc
         exc = failure.error
+        cause = LET_OVERRUNS if isinstance(exc, _LetOverruns) else RAISED
         error = (
-            str(exc) if isinstance(exc, _LetOverruns)
+            str(exc) if cause == LET_OVERRUNS
             else type(exc).__name__ + (f": {exc}" if str(exc) else "")
         )
         policy = entry.spec.policy
@@ -1094,9 +1097,9 @@ class Runner:
         if policy.on_error == ON_ERROR_RESTART and entry.restarts < policy.max_restarts:
             entry.restarts += 1
             if self._restart(name):
-                self._record(Fault(name, failure.iteration, error, "restarted"))
+                self._record(Fault(name, failure.iteration, error, "restarted", cause=cause))
                 return
-        self._take_out(name, failure.iteration, error, policy)
+        self._take_out(name, failure.iteration, error, policy, cause)
 
     def _contain_let_overruns(self, trip: WatchdogTripped) -> bool:
         """A lane on logical execution time overran more windows than
@@ -1129,7 +1132,9 @@ class Runner:
                 return False
         return True
 
-    def _take_out(self, name: str, iteration: int, error: str, policy: FailurePolicy) -> None:
+    def _take_out(
+        self, name: str, iteration: int, error: str, policy: FailurePolicy, cause: str = RAISED,
+    ) -> None:
         """Take ``name`` and what reads its outputs out of the schedule; safe-stop them."""
         edges = [(e.producer.component, e.consumer.component) for e in self.graph.edges]
         order = self.graph.order
@@ -1158,7 +1163,7 @@ class Runner:
         self._run_safe_stops(sorted(victims, key=order.index, reverse=True))
         if fallback and not self.change_state(fallback, "activate").ok:
             fallback = ""
-        self._record(Fault(name, iteration, error, "deactivated", victims, fallback))
+        self._record(Fault(name, iteration, error, "deactivated", victims, fallback, cause))
 
     def _record(self, fault: Fault) -> None:
         self.faults.append(fault)

@@ -231,7 +231,6 @@ class Ros2Bridge:
         self.mode = os.environ.get("RTCF_ROS2_BRIDGE", "timed")
         if self.mode not in ("timed", "plain"):
             raise RtcfError(f"RTCF_ROS2_BRIDGE={self.mode!r}: use timed or plain")
-        self._cdr = self.mode == "timed"
         self._cdr_checked: set[str] = set()
         self._publish_priority = 0  # SCHED_FIFO priority of the publishing thread (0: none)
         self._direct: DirectInputs | None = None  # timed: mapped inputs without the executor
@@ -313,7 +312,8 @@ class Ros2Bridge:
             for port in ports:
                 cls = message_class(port)
                 channel = channels[port.topic]
-                cdr = self._cdr and _cdr_encoder(port.kind) is not None
+                # the timed bridge hands ROS messages over as CDR bytes where it can
+                cdr = self.mode == "timed" and _cdr_encoder(port.kind) is not None
                 if cdr and port.kind not in self._cdr_checked:
                     _check_cdr(port.kind, cls)
                     self._cdr_checked.add(port.kind)
