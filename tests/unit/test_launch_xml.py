@@ -1031,6 +1031,37 @@ def test_eval_ros1_and_ros2(tmp_path: Path) -> None:
     ]
 
 
+def test_eval_sees_args_as_roslaunch_does(tmp_path: Path) -> None:
+    """roslaunch's $(eval) converts each arg as type="auto" would: true/false are bools
+    (so comparing one with the string 'true' is false there, and here), numbers are
+    numbers; ROS 2's eval compares the text its $(var) substituted."""
+    description = load(
+        tmp_path,
+        """
+        <launch>
+          <arg name="on" default="true"/>
+          <arg name="gain" default="2.5"/>
+          <arg name="n" default="3"/>
+          <arg name="word" default="True story"/>
+          <node name="a" pkg="p" type="t" args="$(eval 5 if on else 4)"/>
+          <node name="b" pkg="p" type="t" args="$(eval on == 'true')"/>
+          <node name="c" pkg="p" type="t" args="$(eval gain * n)"/>
+          <node name="d" pkg="p" type="t" args="$(eval arg('n') + 1)"/>
+          <node name="e" pkg="p" type="t" args="$(eval word.split()[0])"/>
+          <node name="f" pkg="p" exec="t" args="$(eval &quot;'$(var on)' == 'true'&quot;)"/>
+        </launch>
+        """,
+    )
+    assert [(n.name, n.args) for n in description.nodes] == [
+        ("a", "5"),
+        ("b", "False"),
+        ("c", "7.5"),
+        ("d", "4"),
+        ("e", "True"),
+        ("f", "True"),
+    ]
+
+
 def test_eval_errors(tmp_path: Path) -> None:
     error = launch_error(
         tmp_path, '<launch>\n<node name="a" pkg="p" type="t" args="$(eval nope + 1)"/>\n</launch>'

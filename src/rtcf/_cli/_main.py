@@ -697,8 +697,22 @@ def main(argv: Sequence[str] | None = None) -> int:
         return 128 + signal.SIGPIPE
 
 
+def parse_arguments(argv: Sequence[str] | None) -> argparse.Namespace:
+    """The command line, with ``name:=value`` launch arguments taken anywhere after the
+    target (``rtcf launch PKG FILE --middleware ros1 use_ros:=true``, as roslaunch
+    takes them), not only before the first option, which is all argparse allows."""
+    parser = build_parser()
+    ns, extra = parser.parse_known_args(argv)
+    stray = [w for w in extra if w.startswith("-") or ":=" not in w]
+    if extra and (stray or not isinstance(getattr(ns, "target", None), list)):
+        parser.parse_args(argv)  # argparse's own message for what it does not know
+    if extra:
+        ns.target = [*ns.target, *extra]
+    return ns
+
+
 def _main(argv: Sequence[str] | None) -> int:
-    ns = build_parser().parse_args(argv)
+    ns = parse_arguments(argv)
     _setup_logging(ns.log_level)
     if ns.debug:
         os.environ.setdefault("RTCF_DEBUG", "1")

@@ -182,6 +182,20 @@ _HANDLERS: dict[str, Callable[[list[str], SubstitutionContext], str]] = {
 }
 
 
+def roslaunch_auto(value: str) -> Any:
+    """An arg's value as roslaunch's ``$(eval)`` sees it (its ``convert_value(value,
+    'auto')``): an int, or a float where there is a ``.``, else ``true``/``false`` in any
+    case as a bool, else the string. So ``$(eval 5 if use_ros else 4)`` with
+    ``use_ros:=true`` is 5, and ``use_ros == 'true'`` is False, in roslaunch and here."""
+    try:
+        return float(value) if "." in value else int(value)
+    except ValueError:
+        pass
+    if value.lower() in ("true", "false"):
+        return value.lower() == "true"
+    return value
+
+
 def _eval(expression: str, context: SubstitutionContext) -> str:
     """Evaluate a Python expression with the args as variables (ROS 1 and ROS 2 style)."""
     expr = expression.strip()
@@ -190,8 +204,8 @@ def _eval(expression: str, context: SubstitutionContext) -> str:
     if "__" in expr:
         raise SubstitutionError(f"$(eval {expr}): '__' is not allowed in expressions")
 
-    def arg(name: str) -> str:
-        return context.arg(name, strict=True)
+    def arg(name: str) -> Any:
+        return roslaunch_auto(context.arg(name, strict=True))
 
     def optenv(name: str, default: str = "") -> str:
         return os.environ.get(name, default)
@@ -209,7 +223,8 @@ def _eval(expression: str, context: SubstitutionContext) -> str:
         "find": context.find_package,
         "anon": context.anon,
         "dirname": context.dirname,
-        **context.variables(),
+        # an arg by its bare name (roslaunch's $(eval); ROS 2's eval has no names)
+        **{name: roslaunch_auto(value) for name, value in context.variables().items()},
     }
     try:
         result = eval(expr, {"__builtins__": _EVAL_BUILTINS}, namespace)

@@ -432,8 +432,16 @@ def launcher_main(argv: list[str] | None = None) -> int:
         _say(who, "error: give PACKAGE TYPE (or the ~rt_package and ~rt_type parameters)")
         rospy.signal_shutdown("no component")
         return 2
-    runner = rospy.resolve_name(str(params.get("runner") or "rt_runner"))
     namespace = rospy.get_namespace()
+    given = str(params.get("runner") or "")
+    candidates = [rospy.resolve_name(given)] if given else runner_candidates(namespace)
+    runner = _await_runner(rospy, candidates, 30.0)
+    if runner is None:
+        where = " or ".join(f"{c}/load_component" for c in candidates)
+        _say(who, f"error: no runner answers at {where} within 30 s; is it running? "
+             "(~runner names another)")
+        rospy.signal_shutdown("no runner")
+        return 1
     remaps = [
         f"{src}:={dst}" for src, dst in rosgraph.names.load_mappings(argv).items()
     ]
@@ -501,6 +509,31 @@ def launcher_main(argv: list[str] | None = None) -> int:
             _say(who, f"warning: unload refused: {reason}")
     rospy.signal_shutdown("rt_launcher stopped")
     return status
+
+
+def runner_candidates(namespace: str, name: str = "rt_runner") -> list[str]:
+    """Where a launcher without ``~runner`` looks for its runner: ``name`` in its own
+    namespace, then in each one above it to the root, nearest first (as roslaunch's
+    ``searchParam`` looks for a parameter): ``/rtcf/rt_runner`` in ``<group
+    ns="rtcf">`` beside its runner, ``/rt_runner`` for a group below a top-level one."""
+    parts = [p for p in namespace.strip("/").split("/") if p]
+    return ["/" + "/".join([*parts[:k], name]) for k in range(len(parts), -1, -1)]
+
+
+def _await_runner(rospy: Any, candidates: list[str], timeout_s: float) -> str | None:
+    """The first of ``candidates`` (nearest first) whose load service is up, waiting up to
+    ``timeout_s`` for one to come; None if none did."""
+    deadline = time.monotonic() + timeout_s
+    while True:
+        for runner in candidates:
+            try:
+                rospy.wait_for_service(f"{runner}/load_component", timeout=0.05)
+                return runner
+            except rospy.ROSException:
+                pass
+        if time.monotonic() >= deadline or rospy.is_shutdown():
+            return None
+        time.sleep(0.1)
 
 
 def _runner_level(runner: str, component: str) -> int:

@@ -136,7 +136,11 @@ def launcher_usage(middleware: str) -> str:
         "  -f, --is_first  the component starts a cycle",
         "",
         "parameters (the node's private ones):",
-        *_parameters(_LAUNCHER_PARAMETERS),
+        *_parameters(_LAUNCHER_PARAMETERS if middleware == "ros2" else [
+            ("runner", "rt_runner", "the runner to load the component into; by default "
+             "the nearest rt_runner from this node's namespace up to /"),
+            *_LAUNCHER_PARAMETERS[1:],
+        ]),
         "",
         f"docs: docs/launch-files.md and docs/{docs} in rtcf's source",
     ]
