@@ -15,7 +15,7 @@ from std_srvs.srv import Trigger
 
 from .._proc import read_rest, wait_for
 from ._helpers import wait_until
-from ._launch import end, ros1_env, rt_launcher, rt_runner
+from ._launch import BIN, end, ros1_env, rt_launcher, rt_runner, start
 
 pytestmark = pytest.mark.integration
 
@@ -136,6 +136,26 @@ def test_launchers_of_a_stopped_runner_exit_with_a_clear_message(ros_node):
     assert r.returncode == 0, rerr
     _, err = read_rest(a, timeout=15)
     assert a.returncode == 1 and "the runner /rgone is gone" in err, err
+
+
+def test_a_launcher_without_runner_finds_the_nearest_from_its_namespace_up(ros_node):
+    """As arm.launch has them: launchers in a group below their runner, no ~runner."""
+    runner("/up/rt_runner")
+    a = start(BIN / "rt_launcher", "rtcf_examples", "Identity", "__name:=deep",
+              "__ns:=/up/arm/wrist")
+    STARTED.append(a)
+    said = wait_for(a, "loaded into", timeout=30)
+    assert "rt_launcher /up/arm/wrist/deep: loaded into /up/rt_runner" in said, said
+
+
+def test_a_launcher_stopped_while_it_waits_for_a_runner_exits_quietly(ros_node):
+    a = start(BIN / "rt_launcher", "rtcf_examples", "Identity", "__name:=early",
+              "__ns:=/nobody/here")
+    time.sleep(2.0)  # waiting for /nobody/here/rt_runner, /nobody/rt_runner, /rt_runner
+    a.send_signal(signal.SIGINT)
+    _, err = read_rest(a, timeout=15)
+    assert a.returncode == 0, err
+    assert "stopped before a runner answered" in err and "Traceback" not in err, err
 
 
 def test_a_refused_launcher_exits_1_with_the_reason(ros_node):

@@ -432,10 +432,23 @@ def launcher_main(argv: list[str] | None = None) -> int:
         _say(who, "error: give PACKAGE TYPE (or the ~rt_package and ~rt_type parameters)")
         rospy.signal_shutdown("no component")
         return 2
+    stop = threading.Event()
+
+    def handler(signum: int, frame: FrameType | None) -> None:
+        stop.set()
+
+    # a stop while waiting for the runner ends the wait; during the load request, it
+    # unloads right after it
+    signal.signal(signal.SIGINT, handler)
+    signal.signal(signal.SIGTERM, handler)
     namespace = rospy.get_namespace()
     given = str(params.get("runner") or "")
     candidates = [rospy.resolve_name(given)] if given else runner_candidates(namespace)
-    runner = _await_runner(rospy, candidates, 30.0)
+    runner = _await_runner(rospy, candidates, 30.0, stop)
+    if runner is None and stop.is_set():
+        _say(who, "stopped before a runner answered")
+        rospy.signal_shutdown("stopped")
+        return 0
     if runner is None:
         where = " or ".join(f"{c}/load_component" for c in candidates)
         _say(who, f"error: no runner answers at {where} within 30 s; is it running? "
@@ -467,14 +480,6 @@ def launcher_main(argv: list[str] | None = None) -> int:
             return False, f"{path} failed: {exc}"
         return bool(answer.success), str(answer.message)
 
-    stop = threading.Event()
-
-    def handler(signum: int, frame: FrameType | None) -> None:
-        stop.set()
-
-    # a stop during the load request unloads right after it
-    signal.signal(signal.SIGINT, handler)
-    signal.signal(signal.SIGTERM, handler)
     ok, reason = call("load_component", srv.LoadComponent, request, 30.0)
     if not ok:
         _say(who, f"error: {runner} refused to load {package}.{cls}: {reason}")
@@ -520,11 +525,13 @@ def runner_candidates(namespace: str, name: str = "rt_runner") -> list[str]:
     return ["/" + "/".join([*parts[:k], name]) for k in range(len(parts), -1, -1)]
 
 
-def _await_runner(rospy: Any, candidates: list[str], timeout_s: float) -> str | None:
+def _await_runner(
+    rospy: Any, candidates: list[str], timeout_s: float, stop: threading.Event,
+) -> str | None:
     """The first of ``candidates`` (nearest first) whose load service is up, waiting up to
-    ``timeout_s`` for one to come; None if none did."""
+    ``timeout_s`` for one to come; None if none did, or ``stop`` was set."""
     deadline = time.monotonic() + timeout_s
-    while True:
+    while not stop.is_set():
         for runner in candidates:
             try:
                 rospy.wait_for_service(f"{runner}/load_component", timeout=0.05)
@@ -533,7 +540,8 @@ def _await_runner(rospy: Any, candidates: list[str], timeout_s: float) -> str | 
                 pass
         if time.monotonic() >= deadline or rospy.is_shutdown():
             return None
-        time.sleep(0.1)
+        stop.wait(0.1)
+    return None
 
 
 def _runner_level(runner: str, component: str) -> int:
