@@ -1133,7 +1133,7 @@ class Runner:
         return True
 
     def _take_out(
-        self, name: str, iteration: int, error: str, policy: FailurePolicy, cause: str = RAISED,
+        self, name: str, iteration: int, error: str, policy: FailurePolicy, cause: str,
     ) -> None:
         """Take ``name`` and what reads its outputs out of the schedule; safe-stop them."""
         edges = [(e.producer.component, e.consumer.component) for e in self.graph.edges]

@@ -86,8 +86,13 @@ def runner_usage(middleware: str) -> str:
     return "\n".join(text)
 
 
+# where each middleware's launcher looks for its runner when ~runner is not given
+_LAUNCHER_RUNNER = {
+    "ros2": ("runner", "/rt_runner", "the runner to load the component into"),
+    "ros1": ("runner", "rt_runner", "the runner to load the component into; by default "
+             "the nearest rt_runner from this node's namespace up to /"),
+}
 _LAUNCHER_PARAMETERS = [
-    ("runner", "/rt_runner", "the runner to load the component into"),
     ("is_first", "false", "the component starts a cycle (its inputs read the last "
      "iteration's values); also the flag -f"),
     ("lane", "main", "the lane (a worker process of its own) it runs in"),
@@ -136,11 +141,7 @@ def launcher_usage(middleware: str) -> str:
         "  -f, --is_first  the component starts a cycle",
         "",
         "parameters (the node's private ones):",
-        *_parameters(_LAUNCHER_PARAMETERS if middleware == "ros2" else [
-            ("runner", "rt_runner", "the runner to load the component into; by default "
-             "the nearest rt_runner from this node's namespace up to /"),
-            *_LAUNCHER_PARAMETERS[1:],
-        ]),
+        *_parameters([_LAUNCHER_RUNNER[middleware], *_LAUNCHER_PARAMETERS]),
         "",
         f"docs: docs/launch-files.md and docs/{docs} in rtcf's source",
     ]
