@@ -63,3 +63,19 @@ def test_a_lane_that_mixes_rates_ends_with_one_line_naming_it(tmp_path):
     assert done.returncode == 1
     assert done.stderr.count("\n") == 1, done.stderr
     assert "lane 'arm' mixes rates" in done.stderr and "every 10" in done.stderr
+
+
+def test_graph_and_check_show_the_components_of_a_let_lane_and_no_internal_step(tmp_path):
+    launch = tmp_path / "let.launch"
+    launch.write_text(LAUNCH)
+    for command in ("graph", "check"):
+        done = run_rtcf(command, launch)
+        assert done.returncode == 0, done.stderr
+        rows = [line.split() for line in done.stdout.splitlines() if line.startswith("  /")]
+        table = {row[0]: row[1:] for row in rows if len(row) > 1 and row[1][0] in ".x"}
+        assert table == {
+            "/slow": ["...x......", "10", "3", "1", "mpc", "(LET)"],
+            "/sink": ["xxxxxxxxxx", "1", "0", "1", "main"],
+            "/src": ["xxxxxxxxxx", "1", "0", "1", "main"],
+        }, done.stdout
+        assert "@" not in done.stdout, done.stdout

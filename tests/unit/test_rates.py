@@ -240,3 +240,17 @@ def test_the_rates_table_has_a_lane_column_and_costs_the_longest_lane() -> None:
     plain = plan_table(["/a", "/b"], [(1, 0), (2, 0)], [20.0, 30.0], 1000.0, ["main", "main"])
     assert "lane" not in plain[2]
     assert plain[-1].endswith("(cost_us), worst first: 50 in 1 phase (0); 20 in 1 phase (1)")
+
+
+def test_the_rates_table_has_rows_for_components_only() -> None:
+    from rtcf._core._rates import plan_table
+
+    # the runner's own LET step (``@let``) runs every iteration in the schedule, but it
+    # is not a component of the launch file: no row, and nothing of it in the costs
+    lines = plan_table(
+        ["@let", "/mpc", "/a"], [(1, 0), (4, 1), (1, 0)], [0.0, 4000.0, 20.0], 1000.0,
+        ["main", "mpc", "main"],
+    )
+    assert [line.split()[0] for line in lines[3:-1]] == ["/mpc", "/a"]
+    assert not any("@let" in line for line in lines)
+    assert lines[-1].endswith("worst first: 20 in 4 phases (0, 1, 2, 3)")

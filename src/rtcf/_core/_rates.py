@@ -152,7 +152,15 @@ def plan_table(
     With ``lanes`` (each component's; "main" for the main lane) and some lane other
     than main, a lane column too; a phase then costs what its longest lock-step lane
     costs (lanes run side by side), and a lane on logical execution time (a lane
-    other than main whose components run every N > 1) is left out of it."""
+    other than main whose components run every N > 1) is left out of it.
+
+    A name that starts with ``@`` is a step of the loop's own (``@let``: the LET
+    lanes' handover in this process), not a component: it has no row."""
+    keep = [k for k, n in enumerate(names) if not n.startswith("@")]
+    names = [names[k] for k in keep]
+    rates = [rates[k] for k in keep]
+    costs = [costs[k] for k in keep]
+    lanes = None if lanes is None else [lanes[k] for k in keep]
     h = 1
     for every, _ in rates:
         h = h * every // math.gcd(h, every)
