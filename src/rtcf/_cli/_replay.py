@@ -30,7 +30,7 @@ from .._launch._files import load_deployment
 from .._runtime._codec import codec_for
 from .._runtime._mcap import McapRecording
 from .._runtime._recording import RecordingDrain, WorkerRecording, recorded_topics, segment_size
-from ._recording_tools import read_recording
+from .._runtime._recording_reader import read_recording
 
 
 def add_parser(sub: Any, add_debug: Callable[[argparse.ArgumentParser], None]) -> None:
