@@ -5,7 +5,8 @@ The joint positions recorded on ``--topic`` (default ``/arm/position``, what arm
 hardware interface measured) are set into the MuJoCo model one frame at a time and
 drawn through ``mujoco.Renderer`` into ``DIR/frame_00000.png``..., and
 ``DIR/arm.gif``. Rendering happens here, after the run, never in the loop; the same
-works for a recording of a real arm whose driver wrote the same topic.
+works for a recording of a real arm whose driver wrote the same topic. The recording is
+read with :mod:`rtcf.recording`.
 
 Needs ``pip install 'rtcf[mujoco,record]'`` and an OpenGL that works without a
 display: EGL (Debian: ``apt install libegl1 libegl-mesa0``, the default here) or OSMesa
@@ -20,26 +21,19 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from rtcf import RtcfError
+from rtcf.recording import Series, read
 
-def positions(recording: str, topic: str) -> list[tuple[float, list[float]]]:
-    """(seconds from the first message, joint positions) of every message on ``topic``."""
-    from mcap.reader import make_reader
-    from mcap_ros2.decoder import DecoderFactory
 
-    out: list[tuple[float, list[float]]] = []
-    with open(recording, "rb") as f:
-        for _, _, message, decoded in make_reader(
-            f, decoder_factories=[DecoderFactory()]
-        ).iter_decoded_messages(topics=[topic]):
-            out.append((message.log_time * 1e-9, [float(x) for x in decoded.data]))
-    if out:
-        t0 = out[0][0]
-        out = [(t - t0, q) for t, q in out]
-    return out
+def positions(recording: str, topic: str) -> Series | None:
+    """The joint positions on ``topic`` over time (one row per message), or None when
+    the recording has no message on it."""
+    rec = read(recording, [topic])
+    return rec.series(topic) if topic in rec.messages else None
 
 
 def render(
-    samples: list[tuple[float, list[float]]],
+    samples: Series,
     directory: Path,
     *,
     model_path: str,
@@ -47,7 +41,8 @@ def render(
     width: int = 480,
     height: int = 360,
 ) -> list[Path]:
-    """Frames at ``fps`` (the latest sample at each frame's time) as PNGs and one GIF."""
+    """Frames at ``fps`` (the latest sample at each frame's time, from the first
+    sample's) as PNGs and one GIF."""
     os.environ.setdefault("MUJOCO_GL", "egl")
     import mujoco
     from PIL import Image
@@ -59,13 +54,14 @@ def render(
     directory.mkdir(parents=True, exist_ok=True)
     frames: list[Any] = []
     paths: list[Path] = []
-    end = samples[-1][0]
+    times = (samples.t_ns - samples.t_ns[0]) * 1e-9
+    end = times[-1]
     k = 0
     for n in range(int(end * fps) + 1):
         t = n / fps
-        while k + 1 < len(samples) and samples[k + 1][0] <= t:
+        while k + 1 < len(times) and times[k + 1] <= t:
             k += 1
-        data.qpos[:] = samples[k][1]
+        data.qpos[:] = samples.values[k]
         mujoco.mj_forward(model, data)
         renderer.update_scene(data, camera=camera)
         image = Image.fromarray(renderer.render())
@@ -100,10 +96,10 @@ def main(argv: list[str] | None = None) -> int:
         return 1
     try:
         samples = positions(args.recording, args.topic)
-    except (OSError, ValueError) as exc:
-        print(f"{prog}: error: {args.recording}: {exc}", file=sys.stderr)
+    except RtcfError as exc:  # missing, not an MCAP file, no mcap packages: one line
+        print(f"{prog}: error: {exc}", file=sys.stderr)
         return 1
-    if not samples:
+    if samples is None:
         print(f"{prog}: error: {args.recording} has no messages on {args.topic}; record it "
               "with rtcf launch ... --record FILE.mcap", file=sys.stderr)
         return 1

@@ -91,3 +91,12 @@ def test_testing_module_exports_exactly_these() -> None:
     ]
     public = {n for n in vars(rtcf.testing) if not n.startswith("_")}
     assert set(rtcf.testing.__all__) <= public
+
+
+def test_recording_module_exports_exactly_these() -> None:
+    import rtcf.recording
+    from rtcf._runtime import _recording_reader
+
+    assert sorted(rtcf.recording.__all__) == ["Message", "Recording", "Series", "read"]
+    for name in rtcf.recording.__all__:
+        assert getattr(rtcf.recording, name) is getattr(_recording_reader, name), name

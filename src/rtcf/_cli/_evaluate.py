@@ -56,9 +56,9 @@ def _read_mcap(path: str, topic: str | None) -> IterationRecords:
     """iteration_info from an MCAP file: rtcf's own recording (``rtcf launch --record``:
     the topic its metadata names) or rosbag2's (``ros2 bag record -s mcap
     /rt_runner/iteration_info``), std_msgs/msg/Float64MultiArray in both."""
-    from .._runtime._recording_reader import read_recording
+    from .._runtime._recording_reader import read
 
-    rec = read_recording(
+    rec = read(
         path, (lambda t: t == topic) if topic else (lambda t: t.endswith("/iteration_info"))
     )
     infos = sorted(rec.messages)

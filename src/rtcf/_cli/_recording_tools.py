@@ -11,13 +11,14 @@ attachments are not compared: a replay differs from its recording there by desig
 ``rtcf plot run.mcap TOPIC...`` draws topics over time (seconds from the file's first
 message) with matplotlib: one subplot per topic on a shared time axis, or all in one
 with ``--overlay``. Values hold between writes (steps), as the components that read
-them see them. Both read the file with the ``mcap`` and ``mcap-ros2-support``
-packages (``pip install 'rtcf[record]'``); plotting needs ``pip install 'rtcf[plot]'``.
+them see them. Both read the file with :mod:`rtcf.recording` (the ``mcap`` packages:
+``pip install 'rtcf[record]'``); plotting needs ``pip install 'rtcf[plot]'``.
 """
 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import math
 import os
@@ -30,10 +31,9 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import numpy.typing as npt
 
 from .._core._errors import ConfigurationError, RtcfError
-from .._runtime._recording_reader import Message, Recording, read_recording
+from .._runtime._recording_reader import Message, Recording, Series, SeriesError, read
 
 PLOT_HINT = "pip install 'rtcf[plot]'"
 
@@ -113,7 +113,7 @@ def compare(a: Recording, b: Recording) -> Comparison:
     first = []
     for topic in common:
         d = _first_difference(topic, a.messages[topic], b.messages[topic], a.start_ns, b.start_ns)
-        if d is None and a.schemas[topic].data != b.schemas[topic].data:
+        if d is None and a.definition(topic) != b.definition(topic):
             d = Difference(topic, -1, None, None)  # the same bytes of another type
         if d is not None:
             first.append(d)
@@ -264,8 +264,8 @@ def format_comparison(cmp: Comparison) -> list[str]:
 def cmd_diff(ns: argparse.Namespace) -> int:
     try:
         select = _topic_filter(ns.topics, "--topics")
-        a = read_recording(ns.a, select)
-        b = read_recording(ns.b, select)
+        a = read(ns.a, select)
+        b = read(ns.b, select)
     except RtcfError as exc:
         if getattr(ns, "debug", False):
             raise
@@ -289,83 +289,25 @@ def cmd_diff(ns: argparse.Namespace) -> int:
 # --- plotting ------------------------------------------------------------------
 
 
-@dataclass
-class Series:
-    """One topic's values over time: ``values[k, j]`` is line j at ``t_s[k]``."""
-
-    topic: str
-    type_name: str
-    labels: list[str]
-    t_s: npt.NDArray[np.float64]
-    values: npt.NDArray[np.float64]
-
-
-def _numeric(value: Any, path: str) -> list[tuple[str, float]] | None:
-    """The numbers a field holds, with their labels; None if it holds none."""
-    if isinstance(value, (bool, int, float, np.integer, np.floating)):
-        return [(path, float(value))]
-    if isinstance(value, (list, tuple, np.ndarray)):
-        if all(isinstance(v, (bool, int, float, np.integer, np.floating)) for v in value):
-            return [(f"{path}[{k}]", float(v)) for k, v in enumerate(value)]
-        return None
-    if getattr(value, "__slots__", None) is not None and not isinstance(value, str):
-        out: list[tuple[str, float]] = []
-        for name in value.__slots__:
-            if name == "header":  # stamps and frame ids are not signals
-                continue
-            sub = _numeric(getattr(value, name), f"{path}.{name}" if path else name)
-            if sub is not None:
-                out.extend(sub)
-        return out or None
-    return None
-
-
-def _field(message: Any, path: str) -> Any:
-    value = message
-    for part in path.split("."):
-        if part not in (getattr(value, "__slots__", None) or ()):
-            raise KeyError(part)
-        value = getattr(value, part)
-    return value
-
-
 def series_of(rec: Recording, topic: str, field_path: str | None) -> Series:
-    """A topic's numbers over time: ``field_path`` (dotted), default ``data`` where the
-    message has it, else every number in it (but its header)."""
-    decode = rec.decoder(topic)
-    msgs = rec.messages[topic]
-    rows: list[list[float]] = []
-    labels: list[str] = []
-    chosen = field_path
-    for m in msgs:
-        decoded = decode(m.data)
-        if chosen is None:
-            chosen = "data" if "data" in (getattr(decoded, "__slots__", None) or ()) else ""
-        try:
-            value = _field(decoded, chosen) if chosen else decoded
-        except KeyError:
-            fields = ", ".join(getattr(decoded, "__slots__", None) or ())
+    """A topic's numbers over time as the plot draws them (``values[k, j]``: line j at
+    ``t_s[k]``, floats): ``field_path`` (dotted), default ``data`` where the message
+    has it, else every number in it (but its header)."""
+    try:
+        s = rec.series(topic, field_path)
+    except SeriesError as exc:
+        if exc.fields is not None:
             raise ConfigurationError(
-                f"--field {chosen}: {topic} ({rec.type_name(topic)}) has no such field; "
-                f"its fields: {fields}"
+                f"--field {exc.field}: {topic} ({rec.type_name(topic)}) has no such field; "
+                f"its fields: {', '.join(exc.fields)}"
             ) from None
-        numbers = _numeric(value, chosen)
-        if numbers is None:
-            raise ConfigurationError(
-                f"{topic} ({rec.type_name(topic)}): {chosen or 'the message'} holds no numbers "
-                "to plot" + ("" if field_path else "; choose a field with --field")
-            )
-        if len(numbers) > len(labels):
-            labels = [label for label, _ in numbers]
-        rows.append([v for _, v in numbers])
-    width = max((len(r) for r in rows), default=1)
-    values = np.full((len(rows), width), np.nan)
-    for k, r in enumerate(rows):
-        values[k, : len(r)] = r
-    t_s = np.array([rec.seconds(m.log_time) for m in msgs], dtype=np.float64)
-    if labels == ["data"]:
-        labels = [""]  # a std_msgs primitive: the topic says it all
-    return Series(topic, rec.type_name(topic), labels or [""], t_s, values)
+        raise ConfigurationError(
+            f"{topic} ({rec.type_name(topic)}): {exc.field or 'the message'} holds no numbers "
+            "to plot" + ("" if field_path else "; choose a field with --field")
+        ) from None
+    labels = [""] if s.labels == ["data"] else s.labels  # a std_msgs primitive: the topic says it
+    values = s.values.astype(np.float64).reshape(len(s), len(labels))
+    return dataclasses.replace(s, labels=labels, values=values)
 
 
 def resolve_topics(rec: Recording, wanted: list[str]) -> list[str]:
@@ -541,7 +483,7 @@ def plot_recording(
         import matplotlib  # noqa: F401  (only: is it installed?)
     except ImportError:
         raise ConfigurationError(f"rtcf plot needs matplotlib: {PLOT_HINT}") from None
-    rec = read_recording(path)
+    rec = read(path)
     chosen = resolve_topics(rec, topics)
     series = [series_of(rec, t, field_path) for t in chosen]
     return draw(rec, series, overlay=overlay, figure=figure)

@@ -30,7 +30,7 @@ from .._launch._files import load_deployment
 from .._runtime._codec import codec_for
 from .._runtime._mcap import McapRecording
 from .._runtime._recording import RecordingDrain, WorkerRecording, recorded_topics, segment_size
-from .._runtime._recording_reader import read_recording
+from .._runtime._recording_reader import read
 
 
 def add_parser(sub: Any, add_debug: Callable[[argparse.ArgumentParser], None]) -> None:
@@ -63,7 +63,7 @@ class _Recorded:
     """A recording's topics: per topic, its message type and its values by iteration."""
 
     def __init__(self, path: str) -> None:
-        rec = read_recording(path)
+        rec = read(path)
         if not rec.metadata:
             raise ConfigurationError(
                 f"{path}: no 'rtcf' metadata: is it a recording of rtcf launch --record?"
@@ -74,11 +74,10 @@ class _Recorded:
         self.schemas: dict[str, str] = {}  # message type -> its definition, as recorded
         self.values: dict[str, dict[int, Any]] = {}
         for topic, messages in rec.messages.items():
-            schema = rec.schemas.get(topic)
-            name = schema.name if schema is not None else ""
+            name = rec.type_name(topic)
             self.types[topic] = name
-            if schema is not None:
-                self.schemas[name] = schema.data.decode()
+            if rec.definition(topic):
+                self.schemas[name] = rec.definition(topic)
             # CDR primitives decoded here; other messages stay bytes until a port asks
             decode = rec.decoder(topic) if name in _PRIMITIVE_TYPES else None
             self.values[topic] = {
