@@ -130,3 +130,48 @@ def test_what_cannot_be_read_is_one_line_naming_it(recording, tmp_path) -> None:
     (tmp_path / "notes.mcap").write_text("hello")
     with pytest.raises(rtcf.ConfigurationError, match=r"notes\.mcap: not an MCAP file"):
         rtcf.recording.read(tmp_path / "notes.mcap")
+
+
+POINT_STAMPED = """std_msgs/Header header
+geometry_msgs/Point point
+================================================================================
+MSG: std_msgs/Header
+builtin_interfaces/Time stamp
+string frame_id
+================================================================================
+MSG: builtin_interfaces/Time
+int32 sec
+uint32 nanosec
+================================================================================
+MSG: geometry_msgs/Point
+float64 x
+float64 y
+float64 z
+"""
+
+
+def test_a_ros2_message_gives_a_field_or_every_number_but_its_header(tmp_path) -> None:
+    from mcap_ros2.writer import Writer
+
+    path = tmp_path / "point.mcap"
+    with open(path, "wb") as f:  # as rtcf records a ROS 2 message: its definition, CDR
+        writer = Writer(f)
+        schema = writer.register_msgdef("geometry_msgs/msg/PointStamped", POINT_STAMPED)
+        for k in range(3):
+            message = {
+                "header": {"stamp": {"sec": k, "nanosec": 0}, "frame_id": f"frame {k}"},
+                "point": {"x": k / 3.0, "y": -1.0, "z": float(k)},
+            }
+            writer.write_message("/point", schema, message, log_time=S + k * P,
+                                 publish_time=S + k * P, sequence=k)
+        writer.finish()
+    rec = rtcf.recording.read(path)
+    assert rec.types == {"/point": "geometry_msgs/msg/PointStamped"}
+    x = rec.series("/point", "point.x")
+    assert x.values.tolist() == [0.0, 1 / 3.0, 2 / 3.0] and x.labels == ["point.x"]
+    whole = rec.series("/point")
+    assert whole.field == "" and whole.labels == ["point.x", "point.y", "point.z"]
+    assert whole.values.tolist() == [[k / 3.0, -1.0, float(k)] for k in range(3)]
+    assert rec.decoder("/point")(rec.messages["/point"][2].data).header.frame_id == "frame 2"
+    with pytest.raises(rtcf.ConfigurationError, match=r"holds no numbers$"):
+        rec.series("/point", "header.frame_id")
