@@ -39,7 +39,7 @@ class Message:
     data: bytes  # the serialized message (CDR; ROS 1's own for a ROS 1 message)
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, eq=False)  # arrays: no element-wise == of two series
 class Series:
     """One topic's numbers over time: one row per message, in the file's order.
 
@@ -243,8 +243,8 @@ def read(
     path: str | os.PathLike[str],
     topics: Iterable[str] | Callable[[str], bool] | None = None,
 ) -> Recording:
-    """Read a recording: every message of ``topics`` (names, or a function that says
-    yes to a topic's name; default: all), undecoded, and the run's metadata.
+    """Read a recording: every message of ``topics`` (a name, several, or a function
+    that says yes to a topic's name; default: all), undecoded, and the run's metadata.
 
     Raises :class:`~rtcf.ConfigurationError` (one line naming the file) when the file
     is missing or not a readable MCAP file, or the ``mcap`` packages are not installed.
