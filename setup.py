@@ -24,12 +24,22 @@ _FENCES = Extension(
     optional=platform.machine().lower() in ("x86_64", "amd64", "i386", "i686"),
 )
 
-# The loop's hot path (src/rtcf/_core/_compiled.c: slots, ports, the timed part of an
-# iteration). Optional: without a C compiler rtcf installs and runs the same in Python
+# The loop's hot path (src/rtcf/_core/_compiled*.c: slots, ports, the timed part of an
+# iteration), one module from one file per concept and their internal header (which
+# `depends` names: a change to it rebuilds them all, and the sdist carries it).
+# Optional: without a C compiler rtcf installs and runs the same in Python
 # (rtcf._core._interpreted), several times slower per component, and says so.
 _HOT_PATH = Extension(
     "rtcf._core._compiled",
-    sources=["src/rtcf/_core/_compiled.c"],
+    sources=[
+        f"src/rtcf/_core/{name}.c"
+        for name in (
+            "_compiled", "_compiled_slot", "_compiled_loop_state", "_compiled_ports",
+            "_compiled_calculation", "_compiled_word_tap", "_compiled_handover",
+            "_compiled_feeders",
+        )
+    ],
+    depends=["src/rtcf/_core/_compiled.h"],
     optional=True,
 )
 

@@ -1,4 +1,4 @@
-"""Which hot path runs: the compiled one (``_compiled.c``) or the same in Python.
+"""Which hot path runs: the compiled one (``_compiled*.c``) or the same in Python.
 
 The compiled module is built when rtcf is installed with a C compiler at hand. Where
 it is missing, the loop runs the Python one (``_interpreted.py``), and ``rtcf launch``

@@ -1,4 +1,4 @@
-"""The loop's hot path in Python: the same as ``_compiled.c``, line for line (but for
+"""The loop's hot path in Python: the same as ``_compiled*.c``, line for line (but for
 the recording's word tap, which the Python path keeps in rtcf._runtime._recording).
 
 It runs where the compiled module could not be built (no C compiler when rtcf was

@@ -1,0 +1,229 @@
+/* rtcf._core._compiled: the worker's feeders in every iteration, RingGate and
+ * HeartbeatWatch: two word reads each in the common case (no control record waits; the
+ * supervisor's heartbeat moved). */
+
+#include "_compiled.h"
+
+/* ---- RingGate ---------------------------------------------------------------------- */
+
+/* A feeder that has work only now and then (control records from the supervisor): the
+ * common case, an empty ring, costs two word reads in C rather than a Python call. */
+typedef struct {
+    PyObject_HEAD
+    Py_buffer words;
+    int held;
+    Py_ssize_t head, tail;
+    PyObject *fn;
+} RingGateObject;
+
+static int
+RingGate_init(RingGateObject *g, PyObject *args, PyObject *kwds)
+{
+    static char *kwlist[] = {"words", "head", "tail", "fn", NULL};
+    PyObject *words, *fn;
+    Py_ssize_t head, tail;
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "OnnO:RingGate", kwlist, &words, &head, &tail,
+                                     &fn))
+        return -1;
+    if (g->held) {
+        PyBuffer_Release(&g->words);
+        g->held = 0;
+    }
+    if (get_words(words, &g->words, "a ring's counters") < 0)
+        return -1;
+    g->held = 1;
+    Py_ssize_t n = g->words.len / 8;
+    if (head < 0 || tail < 0 || head >= n || tail >= n) {
+        PyBuffer_Release(&g->words);
+        g->held = 0;
+        PyErr_SetString(PyExc_IndexError, "RingGate: a counter outside the words");
+        return -1;
+    }
+    g->head = head;
+    g->tail = tail;
+    Py_XSETREF(g->fn, Py_NewRef(fn));
+    return 0;
+}
+
+static PyObject *
+RingGate_call(RingGateObject *g, PyObject *args, PyObject *kwds)
+{
+    if (!g->held)
+        Py_RETURN_NONE;
+    volatile long long *w = (volatile long long *)g->words.buf;
+    if (w[g->head] == w[g->tail])
+        Py_RETURN_NONE;
+    return PyObject_CallNoArgs(g->fn);
+}
+
+static PyObject *
+RingGate_release(RingGateObject *g, PyObject *Py_UNUSED(ignored))
+{
+    if (g->held) {
+        PyBuffer_Release(&g->words);
+        g->held = 0;
+    }
+    Py_RETURN_NONE;
+}
+
+static int
+RingGate_traverse(RingGateObject *g, visitproc visit, void *arg)
+{
+    Py_VISIT(g->fn);
+    return 0;
+}
+
+static int
+RingGate_clear(RingGateObject *g)
+{
+    if (g->held) {
+        PyBuffer_Release(&g->words);
+        g->held = 0;
+    }
+    Py_CLEAR(g->fn);
+    return 0;
+}
+
+static void
+RingGate_dealloc(RingGateObject *g)
+{
+    PyObject_GC_UnTrack(g);
+    RingGate_clear(g);
+    Py_TYPE(g)->tp_free((PyObject *)g);
+}
+
+static PyMethodDef RingGate_methods[] = {
+    {"release", (PyCFunction)RingGate_release, METH_NOARGS,
+     "release()\n--\n\nLet go of the ring's words (calls do nothing after)."},
+    {NULL},
+};
+
+static PyMemberDef RingGate_members[] = {
+    {"fn", T_OBJECT, offsetof(RingGateObject, fn), READONLY, "What a call runs when due."},
+    {NULL},
+};
+
+PyTypeObject RingGateType = {
+    PyVarObject_HEAD_INIT(NULL, 0)
+    .tp_name = "rtcf._core._compiled.RingGate",
+    .tp_doc = "RingGate(words, head, tail, fn): call fn when words[head] != words[tail].",
+    .tp_basicsize = sizeof(RingGateObject),
+    .tp_flags = Py_TPFLAGS_DEFAULT | Py_TPFLAGS_HAVE_GC,
+    .tp_new = PyType_GenericNew,
+    .tp_init = (initproc)RingGate_init,
+    .tp_call = (ternaryfunc)RingGate_call,
+    .tp_dealloc = (destructor)RingGate_dealloc,
+    .tp_traverse = (traverseproc)RingGate_traverse,
+    .tp_clear = (inquiry)RingGate_clear,
+    .tp_methods = RingGate_methods,
+    .tp_members = RingGate_members,
+};
+
+/* ---- HeartbeatWatch ----------------------------------------------------------------- */
+
+/* A feeder: ends the loop (the stop word to ABORT) when the supervisor's heartbeat word
+ * has not moved for ``limit`` iterations. */
+typedef struct {
+    PyObject_HEAD
+    Py_buffer cell, stop;
+    int held;
+    long long last, left, limit, abort;
+    char fired;
+} HeartbeatObject;
+
+static int
+Heartbeat_init(HeartbeatObject *h, PyObject *args, PyObject *kwds)
+{
+    static char *kwlist[] = {"cell", "limit", "stop", "abort", NULL};
+    PyObject *cell, *stop;
+    long long limit, abort_reason;
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "OLOL:HeartbeatWatch", kwlist, &cell, &limit,
+                                     &stop, &abort_reason))
+        return -1;
+    if (h->held) {
+        PyBuffer_Release(&h->cell);
+        PyBuffer_Release(&h->stop);
+        h->held = 0;
+    }
+    if (limit <= 0) {
+        PyErr_SetString(PyExc_ValueError, "HeartbeatWatch: the limit must be positive");
+        return -1;
+    }
+    if (get_words(cell, &h->cell, "the heartbeat word") < 0)
+        return -1;
+    if (get_words(stop, &h->stop, "the stop word") < 0) {
+        PyBuffer_Release(&h->cell);
+        return -1;
+    }
+    h->held = 1;
+    h->last = ((volatile long long *)h->cell.buf)[0];
+    h->left = h->limit = limit;
+    h->abort = abort_reason;
+    h->fired = 0;
+    return 0;
+}
+
+static PyObject *
+Heartbeat_call(HeartbeatObject *h, PyObject *args, PyObject *kwds)
+{
+    if (!h->held)
+        Py_RETURN_NONE;
+    long long beat = ((volatile long long *)h->cell.buf)[0];
+    if (beat != h->last) {
+        h->last = beat;
+        h->left = h->limit;
+        Py_RETURN_NONE;
+    }
+    if (--h->left == 0) {
+        h->fired = 1;
+        ((volatile long long *)h->stop.buf)[0] = h->abort;
+    }
+    Py_RETURN_NONE;
+}
+
+static PyObject *
+Heartbeat_release(HeartbeatObject *h, PyObject *Py_UNUSED(ignored))
+{
+    if (h->held) {
+        PyBuffer_Release(&h->cell);
+        PyBuffer_Release(&h->stop);
+        h->held = 0;
+    }
+    Py_RETURN_NONE;
+}
+
+static void
+Heartbeat_dealloc(HeartbeatObject *h)
+{
+    Heartbeat_release(h, NULL);
+    Py_TYPE(h)->tp_free((PyObject *)h);
+}
+
+static PyMethodDef Heartbeat_methods[] = {
+    {"release", (PyCFunction)Heartbeat_release, METH_NOARGS,
+     "release()\n--\n\nLet go of the two words (calls do nothing after)."},
+    {NULL},
+};
+
+static PyMemberDef Heartbeat_members[] = {
+    {"fired", T_BOOL, offsetof(HeartbeatObject, fired), 0, "Whether it ended the loop."},
+    {"last", T_LONGLONG, offsetof(HeartbeatObject, last), READONLY, NULL},
+    {"left", T_LONGLONG, offsetof(HeartbeatObject, left), READONLY, NULL},
+    {"limit", T_LONGLONG, offsetof(HeartbeatObject, limit), READONLY, NULL},
+    {NULL},
+};
+
+PyTypeObject HeartbeatType = {
+    PyVarObject_HEAD_INIT(NULL, 0)
+    .tp_name = "rtcf._core._compiled.HeartbeatWatch",
+    .tp_doc = "HeartbeatWatch(cell, limit, stop, abort): a feeder that ends the loop when "
+              "cell[0] has not moved for limit iterations.",
+    .tp_basicsize = sizeof(HeartbeatObject),
+    .tp_flags = Py_TPFLAGS_DEFAULT,
+    .tp_new = PyType_GenericNew,
+    .tp_init = (initproc)Heartbeat_init,
+    .tp_call = (ternaryfunc)Heartbeat_call,
+    .tp_dealloc = (destructor)Heartbeat_dealloc,
+    .tp_methods = Heartbeat_methods,
+    .tp_members = Heartbeat_members,
+};
