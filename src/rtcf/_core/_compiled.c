@@ -12,6 +12,8 @@
  *                 feeders, each component's update called by vectorcall with its time
  *                 (from the TSC where the kernel's clocksource is the TSC, else from
  *                 CLOCK_MONOTONIC) stored into the timing row, the running word
+ *   CompiledPlans an executor's plans as arrays (what each update calls, what it will
+ *                 touch), built where the executor builds its plans: the loop takes them
  *   WordTap       a recorded float, int or bool output: the write pushes its record
  *   Handover      a value crossing lanes: a send, a receive, a LET lane's output
  *   RingGate, HeartbeatWatch
@@ -20,7 +22,7 @@
  *
  * One module built from one file per concept and one internal header, _compiled.h,
  * as CPython builds Modules/_io/: _compiled_slot.c, _compiled_loop_state.c,
- * _compiled_ports.c, _compiled_calculation.c, _compiled_word_tap.c,
+ * _compiled_ports.c, _compiled_plans.c, _compiled_calculation.c, _compiled_word_tap.c,
  * _compiled_handover.c and _compiled_feeders.c (RingGate, HeartbeatWatch). This file
  * holds the module itself: its state, its two functions and its initialisation.
  *
@@ -36,7 +38,7 @@
 
 /* FlowStatus's members (NO_DATA, OLD_DATA, NEW_DATA): rtcf._core._ports hands them in */
 PyObject *flow_status[3] = {NULL, NULL, NULL};
-PyObject *str_plans = NULL;
+PyObject *str_plans = NULL, *str_compiled_plans = NULL;
 PyObject *str_inputs = NULL, *str_outputs = NULL;
 
 /* the words a calculation, a feeder, a tap or a handover is given (at its init) */
@@ -111,14 +113,16 @@ PyInit__compiled(void)
 {
     if (PyType_Ready(&SlotType) < 0 || PyType_Ready(&LoopStateType) < 0 ||
         PyType_Ready(&PortType) < 0 || PyType_Ready(&OutputPortType) < 0 ||
-        PyType_Ready(&InputPortType) < 0 || PyType_Ready(&CalculationType) < 0 ||
+        PyType_Ready(&InputPortType) < 0 || PyType_Ready(&CompiledPlansType) < 0 ||
+        PyType_Ready(&CalculationType) < 0 ||
         PyType_Ready(&RingGateType) < 0 || PyType_Ready(&HeartbeatType) < 0 ||
         PyType_Ready(&WordTapType) < 0 || PyType_Ready(&HandoverType) < 0)
         return NULL;
     str_plans = PyUnicode_InternFromString("plans");
+    str_compiled_plans = PyUnicode_InternFromString("compiled_plans");
     str_inputs = PyUnicode_InternFromString("_rtcf_inputs");
     str_outputs = PyUnicode_InternFromString("_rtcf_outputs");
-    if (str_plans == NULL || str_inputs == NULL || str_outputs == NULL)
+    if (str_plans == NULL || str_compiled_plans == NULL || str_inputs == NULL || str_outputs == NULL)
         return NULL;
     /* direction: a class attribute of each port type */
     PyObject *out = PyUnicode_InternFromString("output"), *in = PyUnicode_InternFromString("input");
@@ -138,6 +142,7 @@ PyInit__compiled(void)
         PyModule_AddObjectRef(m, "Port", (PyObject *)&PortType) < 0 ||
         PyModule_AddObjectRef(m, "OutputPort", (PyObject *)&OutputPortType) < 0 ||
         PyModule_AddObjectRef(m, "InputPort", (PyObject *)&InputPortType) < 0 ||
+        PyModule_AddObjectRef(m, "CompiledPlans", (PyObject *)&CompiledPlansType) < 0 ||
         PyModule_AddObjectRef(m, "Calculation", (PyObject *)&CalculationType) < 0 ||
         PyModule_AddObjectRef(m, "RingGate", (PyObject *)&RingGateType) < 0 ||
         PyModule_AddObjectRef(m, "HeartbeatWatch", (PyObject *)&HeartbeatType) < 0 ||

@@ -95,16 +95,73 @@ typedef struct {
     PyObject *producer;     /* an input's: the OutputPort writing its topic, or NULL */
 } PortObject;
 
+/* ---- Plans ------------------------------------------------------------------------ */
+
+/* Prefetching: after the loop's sleep, a component's working set (its object, its
+ * attribute values, its ports and their slots) comes back from far caches, one line
+ * after another, as each update touches it. While update s runs, the loop asks the CPU
+ * for the lines of update s + RTCF_PREFETCH_DISTANCE, so that their misses overlap
+ * with the work instead of following it (docs/performance.md#the-hot-path-in-c: 200
+ * trivial components at 500 Hz, 86-90 ns per component without, 77-82 with). The
+ * addresses are taken when a plan is compiled and are only ever hints: a prefetch of
+ * memory that has since moved or been freed does nothing. 0 turns it off. */
+#ifndef RTCF_PREFETCH_DISTANCE
+#define RTCF_PREFETCH_DISTANCE 3
+#endif
+#define RTCF_WARM 8 /* lines per step: the object, its values, 6 ports or slots */
+#if defined(__GNUC__) || defined(__clang__)
+#define rtcf_prefetch(p) __builtin_prefetch((p), 1, 3)
+#else
+#define rtcf_prefetch(p) ((void)(p))
+#endif
+
+/* one update of a plan: its timing column, and what to call. A bound method is kept
+ * as its function and its self, called as fn(self): one indirection less per call */
+typedef struct {
+    Py_ssize_t column;
+    PyObject *fn;
+    PyObject *self; /* NULL: fn() */
+    int nwarm;
+    const void *warm[RTCF_WARM]; /* what fn(self) will touch: prefetched, never read */
+} CalcStep;
+
+static inline void
+prefetch_step(const CalcStep *st)
+{
+    for (int q = 0; q < st->nwarm; q++)
+        rtcf_prefetch(st->warm[q]);
+}
+
+typedef struct {
+    Py_ssize_t nsteps, nskipped;
+    CalcStep *steps;
+    Py_ssize_t *skipped;
+} CalcPhase;
+
+/* an executor's plans compiled into arrays (_compiled_plans.c): where the executor
+ * builds its plans, so that the loop only takes them */
+typedef struct {
+    PyObject_HEAD
+    PyObject *plans;    /* the tuple of (steps, skipped) compiled */
+    Py_ssize_t nphases; /* its length: > 0 */
+    CalcPhase *phases;
+    Py_ssize_t columns; /* 1 + the largest column: a timing row must be this wide */
+} CompiledPlansObject;
+
+/* plans compiled into a new CompiledPlans; NULL with an exception */
+RTCF_INTERNAL PyObject *compiled_plans_new(PyObject *plans);
+
 /* the types (each defined in its file; the module adds them) */
 RTCF_INTERNAL extern PyTypeObject SlotType, LoopStateType;
 RTCF_INTERNAL extern PyTypeObject PortType, OutputPortType, InputPortType;
-RTCF_INTERNAL extern PyTypeObject CalculationType, RingGateType, HeartbeatType;
+RTCF_INTERNAL extern PyTypeObject CompiledPlansType, CalculationType;
+RTCF_INTERNAL extern PyTypeObject RingGateType, HeartbeatType;
 RTCF_INTERNAL extern PyTypeObject WordTapType, HandoverType;
 
 /* the module's state (_compiled.c): FlowStatus's members (rtcf._core._ports hands them
- * in), and the names the calculation looks up */
+ * in), and the names the calculation and the plans look up */
 RTCF_INTERNAL extern PyObject *flow_status[3];
-RTCF_INTERNAL extern PyObject *str_plans, *str_inputs, *str_outputs;
+RTCF_INTERNAL extern PyObject *str_plans, *str_compiled_plans, *str_inputs, *str_outputs;
 
 /* obj's buffer as writable int64 words into view; 0, or -1 with an exception */
 RTCF_INTERNAL int get_words(PyObject *obj, Py_buffer *view, const char *what);

@@ -1,114 +1,12 @@
 /* rtcf._core._compiled: Calculation, the timed part of one iteration: wake-up time, the
  * loop state, the feeders, each component's update called by vectorcall with its time
  * (from the TSC or CLOCK_MONOTONIC) stored into the timing row, the running word, and
- * the prefetching of the next updates' working sets. */
+ * the prefetching of the next updates' working sets (the plans' arrays:
+ * _compiled_plans.c). */
 
 #include "_compiled.h"
 
 /* ---- Calculation ------------------------------------------------------------------ */
-
-/* Prefetching: after the loop's sleep, a component's working set (its object, its
- * attribute values, its ports and their slots) comes back from far caches, one line
- * after another, as each update touches it. While update s runs, the loop asks the CPU
- * for the lines of update s + RTCF_PREFETCH_DISTANCE, so that their misses overlap
- * with the work instead of following it (docs/performance.md#the-hot-path-in-c: 200
- * trivial components at 500 Hz, 86-90 ns per component without, 77-82 with). The
- * addresses are taken when a plan is compiled and are only ever hints: a prefetch of
- * memory that has since moved or been freed does nothing. 0 turns it off. */
-#ifndef RTCF_PREFETCH_DISTANCE
-#define RTCF_PREFETCH_DISTANCE 3
-#endif
-#define RTCF_WARM 8 /* lines per step: the object, its values, 6 ports or slots */
-#if defined(__GNUC__) || defined(__clang__)
-#define rtcf_prefetch(p) __builtin_prefetch((p), 1, 3)
-#else
-#define rtcf_prefetch(p) ((void)(p))
-#endif
-
-/* one update of a plan: its timing column, and what to call. A bound method is kept
- * as its function and its self, called as fn(self): one indirection less per call */
-typedef struct {
-    Py_ssize_t column;
-    PyObject *fn;
-    PyObject *self; /* NULL: fn() */
-    int nwarm;
-    const void *warm[RTCF_WARM]; /* what fn(self) will touch: prefetched, never read */
-} CalcStep;
-
-/* where an instance's attribute values live (CPython's layout of each version: what
- * LOAD_ATTR reads for ``self.port``); NULL where unknown */
-static const void *
-attribute_values(PyObject *self)
-{
-    PyTypeObject *t = Py_TYPE(self);
-#ifdef Py_TPFLAGS_MANAGED_DICT
-    if (t->tp_flags & Py_TPFLAGS_MANAGED_DICT) {
-#if PY_VERSION_HEX < 0x030C0000
-        return ((void **)self)[-4]; /* 3.11: the values pointer, before the dict's */
-#elif PY_VERSION_HEX < 0x030D0000
-        uintptr_t dorv = ((uintptr_t *)self)[-3]; /* 3.12: values tagged by -1, or a dict */
-        return (const void *)((dorv & 1) ? dorv + 1 : dorv);
-#else
-        if (t->tp_flags & Py_TPFLAGS_INLINE_VALUES) /* 3.13: values follow the object */
-            return (const char *)self + t->tp_basicsize;
-        return ((void **)self)[-3]; /* else its dict */
-#endif
-    }
-#endif
-    if (t->tp_dictoffset > 0) /* 3.10, or a class with __dict__ in its layout */
-        return *(void **)((char *)self + t->tp_dictoffset);
-    return NULL;
-}
-
-/* a component's ports (its _rtcf_inputs and _rtcf_outputs tables) and their slots */
-static void
-warm_ports(CalcStep *st, PyObject *table_name)
-{
-    /* generic: no __getattr__ of the component's class runs for a hint */
-    PyObject *table = PyObject_GenericGetAttr(st->self, table_name);
-    if (table == NULL) { /* not a component: a lane's handover, a test's callable */
-        PyErr_Clear();
-        return;
-    }
-    if (PyDict_CheckExact(table)) {
-        Py_ssize_t pos = 0;
-        PyObject *name, *port;
-        while (st->nwarm + 2 <= RTCF_WARM && PyDict_Next(table, &pos, &name, &port)) {
-            if (!PyObject_TypeCheck(port, &PortType))
-                continue;
-            st->warm[st->nwarm++] = port;
-            st->warm[st->nwarm++] = ((PortObject *)port)->slot;
-        }
-    }
-    Py_DECREF(table);
-}
-
-static void
-warm_step(CalcStep *st)
-{
-    st->nwarm = 0;
-    if (st->self == NULL)
-        return;
-    st->warm[st->nwarm++] = st->self;
-    const void *values = attribute_values(st->self);
-    if (values != NULL)
-        st->warm[st->nwarm++] = values;
-    warm_ports(st, str_inputs);
-    warm_ports(st, str_outputs);
-}
-
-static inline void
-prefetch_step(const CalcStep *st)
-{
-    for (int q = 0; q < st->nwarm; q++)
-        rtcf_prefetch(st->warm[q]);
-}
-
-typedef struct {
-    Py_ssize_t nsteps, nskipped;
-    CalcStep *steps;
-    Py_ssize_t *skipped;
-} CalcPhase;
 
 typedef struct {
     PyObject_HEAD
@@ -124,8 +22,10 @@ typedef struct {
     Py_ssize_t nwords;       /* words in the ring */
     Py_ssize_t c_iteration, c_scheduled, c_jitter, c_calc, c_phase;
     double ns_per_cycle;     /* > 0: components timed by the cycle counter */
-    /* executor.plans compiled into arrays (calc_compile), while it is this object */
+    /* executor.plans, while it is this object, and its arrays (calc_take): held by
+     * compiled, copied here so that an iteration reads them as its own */
     PyObject *compiled_plans;
+    PyObject *compiled;      /* a CompiledPlans */
     Py_ssize_t nphases;
     CalcPhase *phases;
 } CalculationObject;
@@ -193,103 +93,39 @@ calc_release(CalculationObject *c)
 static void
 calc_forget_plans(CalculationObject *c)
 {
-    if (c->phases != NULL) {
-        for (Py_ssize_t h = 0; h < c->nphases; h++) {
-            CalcPhase *ph = &c->phases[h];
-            for (Py_ssize_t s = 0; s < ph->nsteps; s++) {
-                Py_XDECREF(ph->steps[s].fn);
-                Py_XDECREF(ph->steps[s].self);
-            }
-            PyMem_Free(ph->steps);
-            PyMem_Free(ph->skipped);
-        }
-        PyMem_Free(c->phases);
-        c->phases = NULL;
-    }
     c->nphases = 0;
+    c->phases = NULL;
+    Py_CLEAR(c->compiled);
     Py_CLEAR(c->compiled_plans);
 }
 
+/* executor.plans as arrays: the executor's compiled_plans, compiled where it built
+ * them (nothing to allocate here), or, for plans given otherwise, compiled now */
 static int
-bad_plans(void)
+calc_take(CalculationObject *c, PyObject *plans)
 {
-    PyErr_SetString(PyExc_TypeError,
-                    "Calculation: executor.plans must be a tuple of (steps, skipped) tuples");
-    return -1;
-}
-
-/* executor.plans (a tuple of (steps, skipped): steps a tuple of (column, callable),
- * skipped a tuple of columns) into arrays, checked once: when the plans change (a
- * load, a lifecycle transition between iterations), not in every iteration */
-static int
-calc_compile(CalculationObject *c, PyObject *plans)
-{
-    calc_forget_plans(c);
-    if (!PyTuple_Check(plans) || PyTuple_GET_SIZE(plans) == 0)
-        return bad_plans();
-    Py_ssize_t h = PyTuple_GET_SIZE(plans);
-    c->phases = PyMem_Calloc((size_t)h, sizeof(CalcPhase));
-    if (c->phases == NULL) {
-        PyErr_NoMemory();
+    PyObject *ready = PyObject_GetAttr(c->executor, str_compiled_plans);
+    if (ready == NULL) {
+        if (!PyErr_ExceptionMatches(PyExc_AttributeError))
+            return -1;
+        PyErr_Clear();
+    } else if (!Py_IS_TYPE(ready, &CompiledPlansType) ||
+               ((CompiledPlansObject *)ready)->plans != plans) {
+        Py_CLEAR(ready);
+    }
+    if (ready == NULL && (ready = compiled_plans_new(plans)) == NULL)
+        return -1;
+    CompiledPlansObject *cp = (CompiledPlansObject *)ready;
+    if (cp->columns > c->width) {
+        Py_DECREF(ready);
+        PyErr_SetString(PyExc_IndexError, "Calculation: a plan's column outside the row");
         return -1;
     }
-    c->nphases = h;
-    for (Py_ssize_t p = 0; p < h; p++) {
-        PyObject *plan = PyTuple_GET_ITEM(plans, p);
-        if (!PyTuple_Check(plan) || PyTuple_GET_SIZE(plan) != 2)
-            goto bad;
-        PyObject *steps = PyTuple_GET_ITEM(plan, 0), *skipped = PyTuple_GET_ITEM(plan, 1);
-        if (!PyTuple_Check(steps) || !PyTuple_Check(skipped))
-            goto bad;
-        CalcPhase *ph = &c->phases[p];
-        Py_ssize_t n = PyTuple_GET_SIZE(steps), ns = PyTuple_GET_SIZE(skipped);
-        ph->steps = PyMem_Calloc((size_t)(n ? n : 1), sizeof(CalcStep));
-        ph->skipped = PyMem_Calloc((size_t)(ns ? ns : 1), sizeof(Py_ssize_t));
-        if (ph->steps == NULL || ph->skipped == NULL) {
-            PyErr_NoMemory();
-            goto fail;
-        }
-        for (Py_ssize_t k = 0; k < n; k++) {
-            PyObject *step = PyTuple_GET_ITEM(steps, k);
-            if (!PyTuple_Check(step) || PyTuple_GET_SIZE(step) != 2)
-                goto bad;
-            Py_ssize_t col = PyLong_AsSsize_t(PyTuple_GET_ITEM(step, 0));
-            if (col < 0 || col >= c->width) {
-                if (!PyErr_Occurred())
-                    PyErr_SetString(PyExc_IndexError,
-                                    "Calculation: a step's column outside the row");
-                goto fail;
-            }
-            PyObject *fn = PyTuple_GET_ITEM(step, 1);
-            CalcStep *st = &ph->steps[ph->nsteps++];
-            st->column = col;
-            if (PyMethod_Check(fn)) {
-                st->fn = Py_NewRef(PyMethod_GET_FUNCTION(fn));
-                st->self = Py_NewRef(PyMethod_GET_SELF(fn));
-                warm_step(st);
-            } else {
-                st->fn = Py_NewRef(fn);
-                st->self = NULL;
-            }
-        }
-        for (Py_ssize_t k = 0; k < ns; k++) {
-            Py_ssize_t col = PyLong_AsSsize_t(PyTuple_GET_ITEM(skipped, k));
-            if (col < 0 || col >= c->width) {
-                if (!PyErr_Occurred())
-                    PyErr_SetString(PyExc_IndexError,
-                                    "Calculation: a skipped column outside the row");
-                goto fail;
-            }
-            ph->skipped[ph->nskipped++] = col;
-        }
-    }
-    c->compiled_plans = Py_NewRef(plans);
+    Py_XSETREF(c->compiled, ready);
+    Py_XSETREF(c->compiled_plans, Py_NewRef(plans));
+    c->nphases = cp->nphases;
+    c->phases = cp->phases;
     return 0;
-bad:
-    bad_plans();
-fail:
-    calc_forget_plans(c);
-    return -1;
 }
 
 static int
@@ -371,12 +207,7 @@ Calculation_traverse(CalculationObject *c, visitproc visit, void *arg)
     Py_VISIT(c->now);
     Py_VISIT(c->sleep_until);
     Py_VISIT(c->compiled_plans);
-    for (Py_ssize_t h = 0; c->phases != NULL && h < c->nphases; h++) {
-        for (Py_ssize_t s = 0; s < c->phases[h].nsteps; s++) {
-            Py_VISIT(c->phases[h].steps[s].fn);
-            Py_VISIT(c->phases[h].steps[s].self);
-        }
-    }
+    Py_VISIT(c->compiled);
     return 0;
 }
 
@@ -459,11 +290,11 @@ Calculation_iterate(CalculationObject *c, PyObject *const *args, Py_ssize_t narg
         if (t == -1 && PyErr_Occurred())
             return NULL;
     }
-    /* read after the feeders (a swap applies now); compiled once per new plans */
+    /* read after the feeders (a swap applies now); new plans are taken compiled */
     PyObject *plans = PyObject_GetAttr(c->executor, str_plans);
     if (plans == NULL)
         return NULL;
-    if (plans != c->compiled_plans && calc_compile(c, plans) < 0) {
+    if (plans != c->compiled_plans && calc_take(c, plans) < 0) {
         Py_DECREF(plans);
         return NULL;
     }

@@ -27,7 +27,7 @@ from typing import NamedTuple
 
 from ._clock import Clock
 from ._faults import WatchdogTripped
-from ._hotpath import Calculation, component_clock
+from ._hotpath import Calculation, CompiledPlans, component_clock
 from ._interpreted import SKIPPED as SKIPPED  # a component's column when it did not run
 from ._loop_state import LoopState
 from ._timing import (
@@ -161,6 +161,8 @@ class Executor:
         self.plan: Plan  # what each iteration runs; swapped between iterations by set_active()
         # per phase of the hyperperiod (several rates); iteration i runs plans[i % len]
         self.plans: tuple[Plan, ...] = ()
+        # the plans as the loop's calculation runs them, compiled with them (set_active)
+        self.compiled_plans: CompiledPlans
         self.hyperperiod = 1  # len(plans)
         self.rates: tuple[tuple[int, int], ...] | None = None  # (every, phase) per update
         # steps that run in every iteration, active or not (a lane's handovers)
@@ -211,9 +213,13 @@ class Executor:
 
         Call it between iterations (a feeder, ``idle``) or between runs. It compiles a
         new plan (allocation, outside the loop's steady state) and swaps it in.
+        Compiled here for the loop's calculation too (the compiled path's arrays and
+        what to prefetch), so that the next iteration only takes them: nothing
+        allocates in the first iteration after a lifecycle change or a fallback swap.
         """
         plans = compile_plans(self.updates, active, self.rates, self.always)
         self.hyperperiod = len(plans)  # the loop picks plans[i % hyperperiod]
+        self.compiled_plans = CompiledPlans(plans)  # before plans: the loop reads plans first
         self.plans = plans
         self.plan = plans[0]
 

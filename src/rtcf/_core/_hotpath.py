@@ -36,6 +36,7 @@ else:
 if TYPE_CHECKING:  # the two have the same API: type-check against the Python one
     from ._interpreted import (
         Calculation,
+        CompiledPlans,
         Handover,
         HeartbeatWatch,
         InputPort,
@@ -54,6 +55,7 @@ else:
     OutputPort = _module.OutputPort
     InputPort = _module.InputPort
     Calculation = _module.Calculation
+    CompiledPlans = _module.CompiledPlans
     RingGate = _module.RingGate
     HeartbeatWatch = _module.HeartbeatWatch
     WordTap = _module.WordTap  # None on the Python path

@@ -170,6 +170,33 @@ class InputPort(Port[T]):
 SKIPPED = -1  # a component's time column in an iteration it did not run in
 
 
+class CompiledPlans:
+    """An executor's plans as the calculation runs them, built where the executor builds
+    its plans (``Executor.set_active``), so that the loop's first iteration after a
+    change only takes them: the compiled path's arrays of what each update calls and
+    what it will touch; here the plans themselves, checked the same way."""
+
+    __slots__ = ("columns", "plans")
+
+    def __init__(self, plans: Any) -> None:
+        if not isinstance(plans, tuple) or not plans or not all(
+            isinstance(p, tuple) and len(p) == 2 and isinstance(p[0], tuple)
+            and isinstance(p[1], tuple) and all(
+                isinstance(s, tuple) and len(s) == 2 for s in p[0]
+            )
+            for p in plans
+        ):
+            raise TypeError(
+                "Calculation: executor.plans must be a tuple of (steps, skipped) tuples"
+            )
+        columns = [k for steps, skipped in plans for k, _ in steps]
+        columns += [k for _, skipped in plans for k in skipped]
+        if any(k < 0 for k in columns):
+            raise IndexError("Calculation: a plan's column outside the row")
+        self.plans = plans
+        self.columns = max(columns, default=-1) + 1  # how wide a timing row must be
+
+
 class Calculation:
     """The timed part of the loop's iterations (see rtcf._core._executor)."""
 
