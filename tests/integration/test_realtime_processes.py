@@ -27,7 +27,8 @@ CHILD = r"""
 import json, os, pwd, sys
 
 import rtcf._cli._report  # everything is imported before privileges are dropped
-from rtcf._runtime._realtime import apply_realtime, describe_failures
+from rtcf._runtime._realtime import apply_realtime
+from rtcf._runtime._realtime_report import describe_failures
 from rtcf._core._settings import RunnerSettings
 
 

@@ -15,21 +15,24 @@ from pathlib import Path
 
 import pytest
 
-from rtcf._runtime._realtime import (
-    SIMULATED,
-    Applied,
-    FrozenGC,
-    RealtimeReport,
-    cpus_from_mask,
-    describe_failures,
-    format_cpus,
-    mlockall_refusal,
+from rtcf._runtime._kernel_facts import (
     parse_cpu_list,
     rt_throttling,
     rt_throttling_text,
     scheduler_name,
+)
+from rtcf._runtime._memory_lock import mlockall_refusal, stack_mapping
+from rtcf._runtime._realtime import (
+    FrozenGC,
+    cpus_from_mask,
+    format_cpus,
     scheduler_refusal,
-    stack_mapping,
+)
+from rtcf._runtime._realtime_report import (
+    SIMULATED,
+    Applied,
+    RealtimeReport,
+    describe_failures,
 )
 
 

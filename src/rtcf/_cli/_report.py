@@ -11,7 +11,7 @@ from typing import Any
 from .._core._histogram import LogHistogram
 from .._core._runner import RunResult
 from .._core._settings import RunnerSettings
-from .._runtime._realtime import kernel_preemption
+from .._runtime._kernel_facts import kernel_preemption
 
 _COLUMNS = ("min", "p50", "p99", "p999", "max")
 

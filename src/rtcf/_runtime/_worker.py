@@ -44,7 +44,8 @@ from .._core._tunables import LIFECYCLE, UPDATE_RECORD_SIZE, UPDATE_RING_RECORDS
 from ._doorbell import Doorbell
 from ._lanes import Aborted, LaneLayout, LaneLink, value_size
 from ._port_channels import MappedPort, WorkerPorts, mapped_ports
-from ._realtime import FrozenGC, RealtimeReport, apply_realtime
+from ._realtime import FrozenGC, apply_realtime
+from ._realtime_report import RealtimeReport
 from ._recording import RecordedTopic, WorkerRecording, recorded_topics
 from ._shm import Segment, receive_segments
 
