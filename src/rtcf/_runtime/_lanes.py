@@ -217,14 +217,15 @@ class LaneLink:
         for k in range(DEPTH):
             at = channel.offset + k * channel.entry_bytes
             entries.append((at // 8, self.buf[at + 8 * ENTRY_WORDS : at + channel.entry_bytes]))
-        source = HEADER_WORDS + LANE_WORDS * self.layout.index(channel.lane) + L_LAST
+        producer = self.layout.index(channel.lane)  # its words, and its (every, phase)
+        source = HEADER_WORDS + LANE_WORDS * producer + L_LAST
         send = step.kind in (SEND, LET_OUT)
         if step.kind not in (SEND, LET_OUT, RECV, TAKE, LET_IN):
             raise ConfigurationError(f"lane {self.lane!r}: unknown handover {step.kind!r}")
         mode = _SEND if send else _LET_IN if step.kind == LET_IN else _RECV
         delayed = 1 if (step.delayed or step.kind == TAKE) else 0
         code: Any = codec.encode if send else codec.decode_buffer()
-        every, phase = self.layout.kinds[self.layout.index(channel.lane)]
+        every, phase = self.layout.kinds[producer]
         assert self.state is not None, "bound() before bind()"
         handover: Any
         if Handover is not None:
@@ -235,8 +236,11 @@ class LaneLink:
                 None if self.now is time.monotonic_ns else self.now, self.pause is _nap,
             )
         else:
-            kind = (_Send, _Recv, _LetIn)[mode]
-            handover = kind(self, step, port._slot, channel, entries, code, source)
+            args = (self, step, port._slot, channel, entries, code, source)
+            if mode == _LET_IN:
+                handover = _LetIn(*args, every, phase)
+            else:
+                handover = (_Send, _Recv)[mode](*args)
         self.steps.append((step.label, step.kind == SEND, handover))
         return handover
 
@@ -555,10 +559,10 @@ class _LetIn(_Recv):
 
     def __init__(self, link: LaneLink, step: Step, slot: Slot, channel: Channel,
                  entries: Sequence[tuple[int, memoryview]],
-                 decode: Callable[[Any, int], Any], source: int) -> None:
+                 decode: Callable[[Any, int], Any], source: int, every: int,
+                 phase: int) -> None:
         super().__init__(link, step, slot, channel, entries, decode, source)
-        k = link.layout.index(channel.lane)
-        self.every, self.phase = link.layout.kinds[k]
+        self.every, self.phase = every, phase  # the LET lane's, as LaneLink.bind found them
         self.last = -sys.maxsize
         self.let_overruns = 0
 
