@@ -100,10 +100,60 @@ def _release(*views: memoryview) -> None:
         view.release()
 
 
+# A ring and a mailbox start with a header of int64 words, the magic number first.
+# create() writes the magic number last and open() checks it first, so an opener
+# never takes a header for complete while it is being written.
+_MAGIC = 0
+
+
+def _check_room(view: memoryview, need: int, what: str) -> None:
+    """create(): ``view`` must hold ``need`` bytes for ``what`` it lays out."""
+    if len(view) < need:
+        raise ValueError(
+            f"buffer of {len(view)} bytes is too small for {what} ({need} bytes needed)"
+        )
+
+
+def _write_header(view: memoryview, nbytes: int, fields: dict[int, int], magic: int) -> None:
+    """Zero the first ``nbytes`` of ``view``, set the header words ``fields``, then the
+    magic number."""
+    with view[:nbytes].cast("q") as words:
+        for i in range(len(words)):
+            words[i] = 0
+        for at, value in fields.items():
+            words[at] = value
+        words[_MAGIC] = magic  # last: an opener sees a complete header
+
+
+def _read_header(
+    view: memoryview, header: int, magic: int, kind: str, fields: tuple[int, ...]
+) -> tuple[int, ...]:
+    """open(): the header words ``fields`` of the ``kind`` (Ring, Mailbox) laid out at
+    the start of ``view``, once its magic number says it is one."""
+    what = kind.lower()
+    if len(view) < header:
+        raise ValueError(f"buffer of {len(view)} bytes is too small to hold a {what}")
+    with view[:header].cast("q") as words:
+        found = words[_MAGIC]
+        values = tuple(words[at] for at in fields)
+    if found != magic:
+        raise ValueError(
+            f"buffer does not hold an rtcf {what} (bad magic number): "
+            f"was it laid out with {kind}.create()?"
+        )
+    return values
+
+
+def _check_length(view: memoryview, need: int, what: str) -> None:
+    """open(): ``view`` must be as long as the ``what`` its header describes."""
+    if len(view) < need:
+        raise ValueError(f"buffer of {len(view)} bytes is shorter than its {what} ({need} bytes)")
+
+
 # Ring header: int64 words. Line 0 is written once by create(); line 1 only by the
 # producer; line 2 only by the consumer (separate cache lines: no false sharing).
 _RING_MAGIC = int.from_bytes(b"rtcfRNG1", "little")
-_R_MAGIC, _R_CAPACITY, _R_RECORD_SIZE = 0, 1, 2
+_R_CAPACITY, _R_RECORD_SIZE = 1, 2  # after the magic number
 _R_HEAD, _R_DROPPED = 8, 9
 _R_TAIL = 16
 _RING_HEADER = 3 * _CACHE_LINE
@@ -146,17 +196,9 @@ class Ring:
         view = _byte_view(buf)
         try:
             need = _RING_HEADER + capacity * record_size
-            if len(view) < need:
-                raise ValueError(
-                    f"buffer of {len(view)} bytes is too small for a ring of {capacity} "
-                    f"records of {record_size} bytes ({need} bytes needed)"
-                )
-            with view[:_RING_HEADER].cast("q") as ctl:
-                for i in range(len(ctl)):
-                    ctl[i] = 0
-                ctl[_R_CAPACITY] = capacity
-                ctl[_R_RECORD_SIZE] = record_size
-                ctl[_R_MAGIC] = _RING_MAGIC  # last: an opener sees a complete header
+            _check_room(view, need, f"a ring of {capacity} records of {record_size} bytes")
+            fields = {_R_CAPACITY: capacity, _R_RECORD_SIZE: record_size}
+            _write_header(view, _RING_HEADER, fields, _RING_MAGIC)
             return cls(view, capacity, record_size)
         finally:
             view.release()
@@ -166,24 +208,14 @@ class Ring:
         """Attach to the ring another process (or object) created in ``buf``."""
         view = _byte_view(buf)
         try:
-            if len(view) < _RING_HEADER:
-                raise ValueError(f"buffer of {len(view)} bytes is too small to hold a ring")
-            with view[:_RING_HEADER].cast("q") as ctl:
-                magic, capacity, record_size = ctl[0], ctl[1], ctl[2]
-            if magic != _RING_MAGIC:
-                raise ValueError(
-                    "buffer does not hold an rtcf ring (bad magic number): "
-                    "was it laid out with Ring.create()?"
-                )
+            capacity, record_size = _read_header(
+                view, _RING_HEADER, _RING_MAGIC, "Ring", (_R_CAPACITY, _R_RECORD_SIZE)
+            )
             if capacity <= 0 or capacity & (capacity - 1) or record_size <= 0 or record_size % 8:
                 raise ValueError(
                     f"corrupt ring header: capacity {capacity}, record size {record_size}"
                 )
-            need = _RING_HEADER + capacity * record_size
-            if len(view) < need:
-                raise ValueError(
-                    f"buffer of {len(view)} bytes is shorter than its ring ({need} bytes)"
-                )
+            _check_length(view, _RING_HEADER + capacity * record_size, "ring")
             return cls(view, capacity, record_size)
         finally:
             view.release()
@@ -407,7 +439,7 @@ def _ring_shape(capacity: int, record_size: int) -> tuple[int, int]:
 # Mailbox header: line 0 written once by create(); line 1 by the writer. Each of
 # the two buffers has a line of its own (sequence, length) and then the payload.
 _MAILBOX_MAGIC = int.from_bytes(b"rtcfMBX1", "little")
-_M_MAGIC, _M_SIZE = 0, 1
+_M_SIZE = 1  # after the magic number
 _M_LATEST, _M_VERSION = 8, 9
 _M_SEQ, _M_LENGTH, _M_STAMP = 0, 1, 2  # _M_STAMP: the write count of the value held
 _MAILBOX_HEADER = 2 * _CACHE_LINE
@@ -455,16 +487,8 @@ class Mailbox:
         need = cls.nbytes(size)
         view = _byte_view(buf)
         try:
-            if len(view) < need:
-                raise ValueError(
-                    f"buffer of {len(view)} bytes is too small for a mailbox of "
-                    f"{size} bytes ({need} bytes needed)"
-                )
-            with view[:need].cast("q") as words:
-                for i in range(len(words)):
-                    words[i] = 0
-                words[_M_SIZE] = size
-                words[_M_MAGIC] = _MAILBOX_MAGIC  # last: an opener sees a complete header
+            _check_room(view, need, f"a mailbox of {size} bytes")
+            _write_header(view, need, {_M_SIZE: size}, _MAILBOX_MAGIC)
             return cls(view, size)
         finally:
             view.release()
@@ -474,20 +498,8 @@ class Mailbox:
         """Attach to the mailbox another process (or object) created in ``buf``."""
         view = _byte_view(buf)
         try:
-            if len(view) < _MAILBOX_HEADER:
-                raise ValueError(f"buffer of {len(view)} bytes is too small to hold a mailbox")
-            with view[:_MAILBOX_HEADER].cast("q") as ctl:
-                magic, size = ctl[_M_MAGIC], ctl[_M_SIZE]
-            if magic != _MAILBOX_MAGIC:
-                raise ValueError(
-                    "buffer does not hold an rtcf mailbox (bad magic number): "
-                    "was it laid out with Mailbox.create()?"
-                )
-            need = cls.nbytes(size)
-            if len(view) < need:
-                raise ValueError(
-                    f"buffer of {len(view)} bytes is shorter than its mailbox ({need} bytes)"
-                )
+            (size,) = _read_header(view, _MAILBOX_HEADER, _MAILBOX_MAGIC, "Mailbox", (_M_SIZE,))
+            _check_length(view, cls.nbytes(size), "mailbox")
             return cls(view, size)
         finally:
             view.release()
