@@ -33,6 +33,7 @@ from typing import Any
 import numpy as np
 
 from .._core._errors import ConfigurationError, RtcfError
+from .._runtime._recording import topic_pattern
 from .._runtime._recording_reader import Message, Recording, Series, SeriesError, read
 
 PLOT_HINT = "pip install 'rtcf[plot]'"
@@ -42,12 +43,7 @@ PLOT_HINT = "pip install 'rtcf[plot]'"
 
 
 def _topic_filter(pattern: str, option: str) -> Callable[[str], bool]:
-    try:
-        regex = re.compile(pattern)
-    except re.error as exc:
-        raise ConfigurationError(
-            f"{option} {pattern!r} is not a valid regular expression: {exc}"
-        ) from None
+    regex = topic_pattern(pattern, option)
     return lambda topic: regex.fullmatch(topic) is not None
 
 

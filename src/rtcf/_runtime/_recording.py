@@ -48,16 +48,21 @@ class RecordedTopic:
     nbytes: int = 0
 
 
+def topic_pattern(pattern: str, option: str) -> re.Pattern[str]:
+    """``pattern`` compiled, or an error naming the command line's ``option`` that gave it."""
+    try:
+        return re.compile(pattern)
+    except re.error as exc:
+        raise ConfigurationError(
+            f"{option} {pattern!r} is not a valid regular expression: {exc}"
+        ) from None
+
+
 def recorded_topics(
     outputs: Iterable[OutputPort[Any]], fed_inputs: Iterable[InputPort[Any]], pattern: str
 ) -> list[RecordedTopic]:
     """The topics to record (full match of ``pattern``), laid out in one segment."""
-    try:
-        regex = re.compile(pattern)
-    except re.error as exc:
-        raise ConfigurationError(
-            f"--record-topics {pattern!r} is not a valid regular expression: {exc}"
-        ) from None
+    regex = topic_pattern(pattern, "--record-topics")
     out: list[RecordedTopic] = []
     seen: set[str] = set()
     offset = 0
