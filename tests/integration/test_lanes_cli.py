@@ -4,28 +4,10 @@ from __future__ import annotations
 
 import csv
 
+from .._launches import let_launch
 from .conftest import run_rtcf
 
-LAUNCH = """<launch>
-  <node name="rt_runner" pkg="rtcf" type="rt_runner">
-    <rosparam param="mode">"wait_for_components"</rosparam>
-    <rosparam param="num_components_expected">3</rosparam>
-    <rosparam param="frequency">1000.0</rosparam>
-  </node>
-  <node name="src" pkg="rtcf" type="rt_launcher" args="rtcf_examples Sine">
-    <remap from="out" to="/x"/>
-  </node>
-  <node name="slow" pkg="rtcf" type="rt_launcher" args="rtcf_examples Identity">
-    <remap from="in_port" to="/x"/><remap from="out_port" to="/y"/>
-    <param name="every" value="10"/>
-    <param name="phase" value="3"/>
-    <param name="lane" value="mpc"/>
-  </node>
-  <node name="sink" pkg="rtcf" type="rt_launcher" args="rtcf_examples Identity">
-    <remap from="in_port" to="/y"/><remap from="out_port" to="/z"/>
-  </node>
-</launch>
-"""
+LAUNCH = let_launch()  # /slow in lane mpc: every 10 from 3
 
 
 def test_a_let_lane_reads_at_its_release_and_shows_at_the_next_window(tmp_path):

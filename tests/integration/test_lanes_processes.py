@@ -20,6 +20,7 @@ from pathlib import Path
 
 import pytest
 
+from .._launches import let_launch
 from .._proc import read_rest, rtcf_shm_names, wait_for_match
 from .conftest import run_rtcf
 from .test_worker import runner_xml, start, write_launch
@@ -139,26 +140,8 @@ def test_the_cascade_with_its_rates_in_two_lanes_gives_the_sequential_values(tmp
     assert_same(reference, split)
 
 
-LET = """<launch>
-  <node name="rt_runner" pkg="rtcf" type="rt_runner">
-    <rosparam param="mode">"wait_for_components"</rosparam>
-    <rosparam param="num_components_expected">3</rosparam>
-    <rosparam param="frequency">200.0</rosparam>
-  </node>
-  <node name="src" pkg="rtcf" type="rt_launcher" args="rtcf_examples Sine">
-    <remap from="out" to="/x"/>
-  </node>
-  <node name="mpc" pkg="rtcf" type="rt_launcher" args="rtcf_examples Busy">
-    <remap from="in_port" to="/x"/><remap from="out_port" to="/u"/>
-    <param name="every" value="4"/><param name="phase" value="1"/>
-    <param name="cost_us" value="9000"/>
-    <param name="lane" value="mpc"/>
-  </node>
-  <node name="sink" pkg="rtcf" type="rt_launcher" args="rtcf_examples Identity">
-    <remap from="in_port" to="/u"/><remap from="out_port" to="/y"/>
-  </node>
-</launch>
-"""
+# /mpc: 9 ms of CPU in lane mpc, every 4 from 1; its output /y
+LET = let_launch(frequency=200.0, name="mpc", cls="Busy", every=4, phase=1, cost_us=9000)
 
 
 def test_a_let_lane_gives_the_same_values_under_sim_and_in_real_time(tmp_path):
@@ -170,7 +153,7 @@ def test_a_let_lane_gives_the_same_values_under_sim_and_in_real_time(tmp_path):
     for k, row in enumerate(sim):  # released at 1, 5, 9, ...: /x of r - 1, seen at r + 4
         releases = list(range(1, k - 3, 4))
         want = x[releases[-1] - 1] + 1.0 if releases else None
-        assert (float(row["/u"]) if row["/u"] else None) == want, k
+        assert (float(row["/y"]) if row["/y"] else None) == want, k
 
 
 FAULT = """

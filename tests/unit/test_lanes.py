@@ -28,6 +28,8 @@ from rtcf._core._timing import TimingWriter, local_ring
 from rtcf._core._trace import Trace
 from rtcf.testing import run_launch
 
+from .._launches import let_launch
+
 
 class Counter(rtcf.Component):
     def configure(self) -> None:
@@ -334,20 +336,6 @@ def test_max_let_overruns_is_a_runner_parameter() -> None:
     with pytest.raises(ConfigurationError, match="max_let_overruns must not be negative"):
         RunnerSettings(max_let_overruns=-1)
 
-ROS1_LAUNCH = """<launch>
-  <node name="rt_runner" pkg="rtcf" type="rt_runner">
-    <rosparam param="frequency">1000.0</rosparam>
-  </node>
-  <node name="src" pkg="rtcf" type="rt_launcher" args="rtcf_examples Sine">
-    <remap from="out" to="/x"/>
-  </node>
-  <node name="slow" pkg="rtcf" type="rt_launcher" args="rtcf_examples Identity">
-    <remap from="in_port" to="/x"/><remap from="out_port" to="/y"/>
-    <param name="every" value="10"/>
-    <param name="lane" value="{lane}"/>
-  </node>
-</launch>
-"""
 
 ROS2_LAUNCH = """<launch>
   <node pkg="rtcf" exec="rt_runner" name="rt_runner">
@@ -365,7 +353,7 @@ def test_a_launchers_lane_parameter_in_both_formats(tmp_path: pytest.TempPathFac
     from rtcf._launch._files import load_deployment
 
     ros1 = tmp_path / "lanes.launch"  # type: ignore[operator]
-    ros1.write_text(ROS1_LAUNCH.format(lane="mpc"))
+    ros1.write_text(let_launch(lane="mpc"))
     specs = {s.name: s for s in load_deployment([str(ros1)]).runner.components}
     assert specs["slow"].lane == "mpc" and specs["src"].lane == ""
     assert "lane" not in specs["slow"].params  # read by the launcher, not a parameter
@@ -380,7 +368,10 @@ def test_a_bad_lane_in_a_launch_file_names_file_and_line(tmp_path: pytest.TempPa
     from rtcf._launch._files import load_deployment
 
     path = tmp_path / "bad.launch"  # type: ignore[operator]
-    path.write_text(ROS1_LAUNCH.format(lane="left arm"))
+    text = let_launch(lane="left arm")
+    path.write_text(text)
     with pytest.raises(LaunchError, match="lane 'left arm' is not a valid lane name") as info:
         load_deployment([str(path)])
-    assert info.value.file == str(path) and info.value.line == 8
+    # the line of its launcher's node
+    line = 1 + next(i for i, t in enumerate(text.splitlines()) if '<node name="slow"' in t)
+    assert info.value.file == str(path) and info.value.line == line == 10

@@ -1,0 +1,36 @@
+"""Launch texts that tests of several folders run (unit, integration, ROS 1, ROS 2).
+
+One copy of each, so that a change of the launch format is made once; a test that
+needs a variant says what differs (the keyword arguments) rather than repeating it.
+"""
+
+# a sine into a component in a lane of its own on logical execution time (released
+# every ``every`` iterations from ``phase``, its output seen one window later), read by
+# a lock-step sink in the main lane: /x -> {name} -> /y -> sink -> /z
+_LET = """<launch>
+  <node name="rt_runner" pkg="rtcf" type="rt_runner">
+    <rosparam param="mode">"wait_for_components"</rosparam>
+    <rosparam param="num_components_expected">3</rosparam>
+    <rosparam param="frequency">{frequency}</rosparam>
+  </node>
+  <node name="src" pkg="rtcf" type="rt_launcher" args="rtcf_examples Sine">
+    <remap from="out" to="/x"/>
+  </node>
+  <node name="{name}" pkg="rtcf" type="rt_launcher" args="rtcf_examples {cls}">
+    <remap from="in_port" to="/x"/><remap from="out_port" to="/y"/>
+    <param name="every" value="{every}"/><param name="phase" value="{phase}"/>{params}
+    <param name="lane" value="{lane}"/>
+  </node>
+  <node name="sink" pkg="rtcf" type="rt_launcher" args="rtcf_examples Identity">
+    <remap from="in_port" to="/y"/><remap from="out_port" to="/z"/>
+  </node>
+</launch>
+"""
+
+
+def let_launch(*, frequency=1000.0, name="slow", cls="Identity", every=10, phase=3,
+               lane="mpc", **params):
+    """The LET launch (ROS 1 format); ``params`` are more parameters of its component."""
+    extra = "".join(f'<param name="{k}" value="{v}"/>' for k, v in params.items())
+    return _LET.format(frequency=frequency, name=name, cls=cls, every=every, phase=phase,
+                       lane=lane, params=extra)
