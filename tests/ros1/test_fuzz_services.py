@@ -9,13 +9,10 @@ accepted unload cleanly; a locked runner keeps its components, and loads only mo
 its allowed_modules name.
 """
 
-import string
-import time
-
 import pytest
 import rospy
 from diagnostic_msgs.msg import DiagnosticArray
-from hypothesis import HealthCheck, given, settings
+from hypothesis import given
 from hypothesis import strategies as st
 from rtcf_msgs.srv import (
     LoadComponent,
@@ -25,24 +22,24 @@ from rtcf_msgs.srv import (
 )
 from std_srvs.srv import Trigger
 
+from .._fuzz import CLASSES, GOOD, GOOD_NAMES, LONG_TEXT, REFUSALS, SHORT_TEXT, THOUSAND, Tally
 from .._proc import rtcf_shm_names, wait_for
+from ._helpers import wait_until
 from .test_nodes import STARTED, end, launcher, runner
 
 pytestmark = pytest.mark.integration
 
 TEXT = st.one_of(
-    st.text(max_size=40), st.text(string.printable, min_size=200, max_size=6000),
+    SHORT_TEXT, LONG_TEXT,
     st.sampled_from(["rtcf_examples", "Mimo", "Identity", "Pid", "os", "/x", "in1:=/x", "(",
                      ".*", "", "a b", "rtcf_examples.Mimo", "__init__"]),
 )
-NAMES = st.text(string.ascii_letters + "_", min_size=1, max_size=12)
 LOAD = st.one_of(
     st.builds(LoadComponentRequest, package=TEXT, type=TEXT, name=TEXT, namespace=TEXT,
               remaps=st.lists(TEXT, max_size=3), is_first=st.booleans(),
               topics_ignore_for_graph=TEXT, launcher=TEXT),
     st.builds(LoadComponentRequest, package=st.just("rtcf_examples"),
-              type=st.sampled_from(["Mimo", "Identity", "Pid"]),
-              name=NAMES.map(lambda n: f"f_{n}")),
+              type=st.sampled_from(CLASSES), name=GOOD_NAMES),
 )
 REQUEST = st.one_of(
     st.tuples(st.just("load"), LOAD),
@@ -51,104 +48,80 @@ REQUEST = st.one_of(
 )
 
 
+def _load_request(fields):
+    """The neutral fields of tests/_fuzz.py as LoadComponent's (package, type)."""
+    fields = dict(fields)
+    return LoadComponentRequest(package=fields.pop("module"), type=fields.pop("class"),
+                                **fields)
+
+
 @pytest.fixture(scope="module")
 def fuzzed(ros_node):
     proc = runner("/fuzzed")
     STARTED.remove(proc)  # this module's own: it outlives each test
-    proxies = {
+    tally = Tally(proc, "/fuzzed")
+    tally.proxies = {
         "load": rospy.ServiceProxy("/fuzzed/load_component", LoadComponent, persistent=True),
         "unload": rospy.ServiceProxy("/fuzzed/unload_component", UnloadComponent,
                                      persistent=True),
         "activate": rospy.ServiceProxy("/fuzzed/activate_rt_loop", Trigger),
         "deactivate": rospy.ServiceProxy("/fuzzed/deactivate_rt_loop", Trigger),
     }
-    for p in proxies.values():
+    for p in tally.proxies.values():
         p.wait_for_service(timeout=20)
-    starts = []  # (when, the runner's "loop starts") from its /diagnostics
-    sub = rospy.Subscriber(
-        "/diagnostics", DiagnosticArray,
-        lambda m: starts.extend((time.monotonic(), int(kv.value)) for s in m.status
-                                if s.name == "rtcf: /fuzzed" for kv in s.values
-                                if kv.key == "loop starts"), queue_size=100)
-    state = {"proc": proc, "proxies": proxies, "answered": 0, "loaded": set(), "refused": 0,
-             "starts": starts}
+    sub = rospy.Subscriber("/diagnostics", DiagnosticArray, tally.seen, queue_size=100)
     try:
-        yield state
+        yield tally
     finally:
         sub.unregister()
-        for p in proxies.values():
+        for p in tally.proxies.values():
             p.close()
         end(proc)
 
 
-def _loop_starts(state):
-    """The runner's "loop starts", as its /diagnostics say it after this moment."""
-    asked = time.monotonic()
-    deadline = asked + 30
-    while not any(t > asked for t, _ in state["starts"]):
-        assert time.monotonic() < deadline, "no /diagnostics from the runner"
-        time.sleep(0.05)
-    return state["starts"][-1][1]
-
-
 def test_refused_loads_are_answered_without_stopping_the_loop(fuzzed):
-    load = fuzzed["proxies"]["load"]
-    good = {"package": "rtcf_examples", "type": "Mimo", "name": "held"}
-    assert load(LoadComponentRequest(**good)).success
-    before = _loop_starts(fuzzed)
-    for fields, said in (
-        (dict(good, package="no_such_module", name="a"), "module 'no_such_module' is not found"),
-        (dict(good, package="rtcf_examples.nope", name="b"),
-         "module 'rtcf_examples.nope' is not found"),
-        (dict(good, type="NoSuchClass", name="c"), "has no class 'NoSuchClass'"),
-        (good, "is already loaded"),
-        (dict(good, name="d", remaps=["x"]), "remap"),
-    ):
-        answer = load(LoadComponentRequest(**fields))
-        assert not answer.success and said in answer.message, (fields, answer.message)
-    assert _loop_starts(fuzzed) == before, "a refused load stopped the loop"
+    load = fuzzed.proxies["load"]
+    assert load(_load_request(GOOD)).success
+    before = fuzzed.loop_starts(wait_until)
+    for what, (fields, said) in REFUSALS.items():
+        answer = load(_load_request(fields))
+        assert not answer.success and said in answer.message, (what, fields, answer.message)
+    assert fuzzed.loop_starts(wait_until) == before, "a refused load stopped the loop"
     # the count does see a real stop: a load (with none loaded, no loop runs to say it)
-    assert load(LoadComponentRequest(**dict(good, name="held2"))).success
-    assert _loop_starts(fuzzed) > before
-    assert fuzzed["proxies"]["unload"](UnloadComponentRequest(name="held2")).success
-    fuzzed["loaded"].add("/held")
+    assert load(_load_request(dict(GOOD, name="held2"))).success
+    assert fuzzed.loop_starts(wait_until) > before
+    assert fuzzed.proxies["unload"](UnloadComponentRequest(name="held2")).success
+    fuzzed.loaded.add("/held")
 
 
-@settings(max_examples=1000, deadline=None, derandomize=True,
-          suppress_health_check=[HealthCheck.function_scoped_fixture, HealthCheck.too_slow,
-                                 HealthCheck.data_too_large])
+@THOUSAND
 @given(request=REQUEST)
 def test_a_thousand_generated_requests_are_each_answered(fuzzed, request):
     kind, req = request
-    if "first" not in fuzzed:
-        fuzzed["first"] = _loop_starts(fuzzed)
-    proxy = fuzzed["proxies"][kind]
+    if fuzzed.first is None:
+        fuzzed.first = fuzzed.loop_starts(wait_until)
+    proxy = fuzzed.proxies[kind]
     answer = proxy(req) if req is not None else proxy()
-    fuzzed["answered"] += 1
+    fuzzed.answered += 1
     if answer.success:
-        fuzzed["accepted"] = fuzzed.get("accepted", 0) + 1  # may stop and start the loop
-    assert fuzzed["proc"].poll() is None, "the runner ended"
+        fuzzed.accepted += 1  # may stop and start the loop
+    assert fuzzed.proc.poll() is None, "the runner ended"
     if kind == "load":
-        assert "Traceback" not in answer.message and "\n" not in answer.message, answer.message
-        if answer.success:
-            namespace = "/" + req.namespace.strip("/") if req.namespace.strip("/") else ""
-            fuzzed["loaded"].add(f"{namespace}/{req.name}")
-        else:
-            fuzzed["refused"] += 1
+        namespace = "/" + req.namespace.strip("/") if req.namespace.strip("/") else ""
+        fuzzed.load_answered(f"{namespace}/{req.name}", answer.success, answer.message)
 
 
 def test_after_the_fuzz_the_loads_unload_cleanly(fuzzed):
-    assert fuzzed["answered"] >= 1000
-    assert len(fuzzed["loaded"]) >= 10 and fuzzed["refused"] >= 100, (
-        len(fuzzed["loaded"]), fuzzed["refused"])
-    fuzzed["proxies"]["activate"]()
-    # stopped and started again only for what was accepted, not for the many refusals
-    assert _loop_starts(fuzzed) - fuzzed["first"] <= fuzzed["accepted"] + 1, (
-        fuzzed["first"], fuzzed["starts"][-1], fuzzed["accepted"], fuzzed["refused"])
-    for name in sorted(fuzzed["loaded"]):
-        answer = fuzzed["proxies"]["unload"](UnloadComponentRequest(name=name))
-        assert answer.success or "is not loaded" in answer.message, (name, answer.message)
-    proc = fuzzed["proc"]
+    fuzzed.check_both_kinds_came()
+    fuzzed.proxies["activate"]()
+    fuzzed.check_restarted_only_when_accepted(wait_until)
+
+    def unload(name):
+        answer = fuzzed.proxies["unload"](UnloadComponentRequest(name=name))
+        return answer.success, answer.message
+
+    fuzzed.unload_all(unload)
+    proc = fuzzed.proc
     assert proc.poll() is None
     [err] = end(proc)
     assert proc.returncode == 0, err
