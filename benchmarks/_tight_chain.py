@@ -32,14 +32,7 @@ def _plain_in_rtcf_loop(updates: tuple[Callable[[], None], ...]) -> Callable[[in
     RTCF_PURE_PYTHON selects, each update timed by the clock rtcf would use): returns
     a function that runs ``iterations`` back to back and gives their calculation p50."""
     from rtcf._core import _hotpath
-    from rtcf._core._timing import (
-        COL_CALC,
-        COL_ITERATION,
-        COL_JITTER,
-        COL_PHASE,
-        COL_SCHEDULED,
-        FIXED_COLUMNS,
-    )
+    from rtcf._core._timing import CALCULATION_COLUMNS, COL_CALC, FIXED_COLUMNS
 
     class Plans:  # what the Calculation reads of an executor
         plans = ((tuple((FIXED_COLUMNS + k, u) for k, u in enumerate(updates)), ()),)
@@ -49,8 +42,7 @@ def _plain_in_rtcf_loop(updates: tuple[Callable[[], None], ...]) -> Callable[[in
     calculation = _hotpath.Calculation(
         Plans(), _hotpath.LoopState(500.0), (), time.monotonic_ns, lambda d: None, True, False,
         array("q", [-1]), words, array("q", bytes(8 * width)), 0, 0, width,
-        (COL_ITERATION, COL_SCHEDULED, COL_JITTER, COL_CALC, COL_PHASE),
-        _hotpath.component_clock()[1],
+        CALCULATION_COLUMNS, _hotpath.component_clock()[1],
     )
 
     def run(iterations: int) -> float:

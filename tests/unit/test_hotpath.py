@@ -19,6 +19,7 @@ import pytest
 
 from rtcf._core import _hotpath, _interpreted
 from rtcf._core._ports import FlowStatus
+from rtcf._core._timing import CALCULATION_COLUMNS, FIXED_COLUMNS
 
 try:
     from rtcf._core import _compiled  # type: ignore[attr-defined]
@@ -26,8 +27,8 @@ except ImportError as exc:  # a failure, not a skip: CI builds it
     raise AssertionError(f"rtcf._core._compiled is not built: {exc}") from None
 
 MODULES = [pytest.param(_compiled, id="compiled"), pytest.param(_interpreted, id="Python")]
-COLUMNS = (0, 1, 2, 3, 5)  # iteration, scheduled, jitter, calc, phase (4: overran)
-F = 6  # the first component's column
+COLUMNS = CALCULATION_COLUMNS  # iteration, scheduled, jitter, calc, phase (4: overran)
+F = FIXED_COLUMNS  # the first component's column
 
 
 def _ports(m: ModuleType) -> tuple[Any, Any]:

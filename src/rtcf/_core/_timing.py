@@ -31,6 +31,9 @@ QUANTILES = (("p50", 0.5), ("p90", 0.9), ("p99", 0.99), ("p999", 0.999))
 # start is on the loop's clock: CLOCK_MONOTONIC ns, or /clock ns under use_sim_time.
 COL_ITERATION, COL_SCHEDULED, COL_JITTER, COL_CALC, COL_OVERRAN, COL_PHASE = range(6)
 FIXED_COLUMNS = 6
+# the columns a Calculation writes itself, in the order it takes them (the overrun is
+# the executor's to write)
+CALCULATION_COLUMNS = (COL_ITERATION, COL_SCHEDULED, COL_JITTER, COL_CALC, COL_PHASE)
 
 # iteration_info as std_msgs/Float64MultiArray (ROS 2, and ROS 1 without rtcf_msgs):
 # these four doubles per iteration, in seconds but for the iteration number
