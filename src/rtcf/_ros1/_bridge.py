@@ -64,8 +64,6 @@ from typing import TYPE_CHECKING, Any
 
 from .._core._errors import RtcfError
 from .._core._log import LogRecord
-from .._core._message_types import STD_MESSAGES, std_type_name
-from .._core._message_types import message_class as core_message_class
 from .._core._params import ParameterStore
 from .._core._rings import Mailbox, Ring
 from .._core._settings import RunnerSettings
@@ -79,7 +77,8 @@ from .._core._timing import (
     iteration_info_doubles,
 )
 from .._runtime._doorbell import ClockFeed, Doorbell
-from .._runtime._health import health
+from .._runtime._health import diagnostic_array, health
+from .._runtime._middleware import import_client, mapped_message_class
 from .._runtime._port_channels import MailboxFanOut, MappedPort, read_record
 from ._face import rosconsole_logger_name
 
@@ -101,26 +100,16 @@ _LEVELS = ((50, 16), (40, 8), (30, 4), (20, 2))  # FATAL, ERROR, WARN, INFO; els
 
 
 def _import_rospy() -> Any:
-    try:
-        import rospy
-    except ImportError as exc:
-        raise RtcfError(
-            f"--middleware ros1 needs rospy ({exc}); on Debian run scripts/setup-ros1 "
-            "and use .venv-ros1 (see docs/ros1.md)"
-        ) from None
-    return rospy
+    return import_client(
+        "rospy", "ros1", "on Debian run scripts/setup-ros1 and use .venv-ros1 (see docs/ros1.md)"
+    )
 
 
 def message_class(port: MappedPort) -> type:
     """The ROS 1 (genpy) message class a mapped port is published or subscribed as."""
-    name = std_type_name(port.kind, ros2=False) if port.kind in STD_MESSAGES else port.type_name
-    try:
-        return core_message_class(name)
-    except LookupError as exc:
-        raise RtcfError(
-            f"topic {port.topic}: {exc}; install its package "
-            "(e.g. apt-get install python3-std-msgs)"
-        ) from None
+    return mapped_message_class(
+        port, ros2=False, install="e.g. apt-get install python3-std-msgs"
+    )
 
 
 @functools.cache
@@ -467,17 +456,9 @@ class Ros1Bridge:
 
     def diagnostics(self, runner: str, status: LiveStatus, aggregate: TimingAggregate) -> None:
         """A timing and health summary on /diagnostics (rqt_runtime_monitor shows it)."""
-        from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+        from diagnostic_msgs import msg as diagnostic
 
-        h = health(runner, status, aggregate)
-        st = DiagnosticStatus(
-            level=DiagnosticStatus.WARN if h.warn else DiagnosticStatus.OK,
-            name=h.name,
-            message=h.message,
-            hardware_id=self.node_name,
-            values=[KeyValue(key=k, value=v) for k, v in h.values],
-        )
-        array = DiagnosticArray(status=[st])
+        array = diagnostic_array(health(runner, status, aggregate), self.node_name, diagnostic)
         array.header.stamp = self._rospy.Time.now()
         self._diagnostics.publish(array)
 

@@ -34,8 +34,6 @@ from typing import TYPE_CHECKING, Any
 from .._core._errors import RtcfError
 from .._core._lifecycle import TransitionOutcome
 from .._core._log import LogLevel, LogRecord
-from .._core._message_types import STD_MESSAGES, std_type_name
-from .._core._message_types import message_class as core_message_class
 from .._core._rings import Mailbox, Ring
 from .._core._settings import RunnerSettings
 from .._core._timing import (
@@ -45,7 +43,8 @@ from .._core._timing import (
     iteration_info_doubles,
 )
 from .._runtime._doorbell import ClockFeed, Doorbell
-from .._runtime._health import health
+from .._runtime._health import diagnostic_array, health
+from .._runtime._middleware import import_client, mapped_message_class
 from .._runtime._port_channels import MailboxFanOut, MappedPort, read_record
 from ._face import ComponentFace, read_only, ros_logger_name, ros_value
 from ._inputs import DirectInputs
@@ -59,25 +58,12 @@ SWITCH_INTERVAL_S = 0.0002  # the supervisor's GIL turn with the timed bridge
 
 
 def _import_rclpy() -> Any:
-    try:
-        import rclpy
-    except ImportError as exc:
-        raise RtcfError(
-            f"--middleware ros2 needs rclpy ({exc}); install ROS 2 Jazzy or "
-            "pip install 'rtcf[ros2]'"
-        ) from None
-    return rclpy
+    return import_client("rclpy", "ros2", "install ROS 2 Jazzy or pip install 'rtcf[ros2]'")
 
 
 def message_class(port: MappedPort) -> type:
     """The ROS 2 message class a mapped port is published or subscribed as."""
-    name = std_type_name(port.kind, ros2=True) if port.kind in STD_MESSAGES else port.type_name
-    try:
-        return core_message_class(name)
-    except LookupError as exc:
-        raise RtcfError(
-            f"topic {port.topic}: {exc}; install its package (e.g. pip install ros-jazzy-std-msgs)"
-        ) from None
+    return mapped_message_class(port, ros2=True, install="e.g. pip install ros-jazzy-std-msgs")
 
 
 # Primitive kinds cross as CDR bytes made here, without a message object: the
@@ -370,17 +356,10 @@ class Ros2Bridge:
 
     def diagnostics(self, runner: str, status: LiveStatus, aggregate: TimingAggregate) -> None:
         """A timing and health summary on /diagnostics (rqt_runtime_monitor shows it)."""
-        from diagnostic_msgs.msg import DiagnosticArray, DiagnosticStatus, KeyValue
+        from diagnostic_msgs import msg as diagnostic
 
         h = health(runner, status, aggregate)
-        st = DiagnosticStatus(
-            level=DiagnosticStatus.WARN if h.warn else DiagnosticStatus.OK,
-            name=h.name,
-            message=h.message,
-            hardware_id=self.node.get_fully_qualified_name(),
-            values=[KeyValue(key=k, value=v) for k, v in h.values],
-        )
-        array = DiagnosticArray(status=[st])
+        array = diagnostic_array(h, self.node.get_fully_qualified_name(), diagnostic)
         array.header.stamp = self.node.get_clock().now().to_msg()
         self._diagnostics.publish(array)
 

@@ -1,12 +1,13 @@
 """The periodic timing and health summary both ROS bridges publish on /diagnostics.
 
-Middleware-neutral: the bridges turn it into diagnostic_msgs of their ROS version.
+Middleware-neutral: the bridges turn it into diagnostic_msgs of their ROS version,
+whose classes (alike in both) they hand to :func:`diagnostic_array`.
 """
 
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
     from .._core._timing import TimingAggregate
@@ -58,3 +59,16 @@ def health(runner: str, status: LiveStatus, aggregate: TimingAggregate) -> Healt
         ),
         values=values,
     )
+
+
+def diagnostic_array(h: Health, hardware_id: str, msgs: Any) -> Any:
+    """``h`` as a DiagnosticArray of ``msgs``, the ``diagnostic_msgs.msg`` module of the
+    bridge's ROS (ROS 1 and ROS 2 build it alike); its header's stamp is the bridge's."""
+    status = msgs.DiagnosticStatus
+    return msgs.DiagnosticArray(status=[status(
+        level=status.WARN if h.warn else status.OK,
+        name=h.name,
+        message=h.message,
+        hardware_id=hardware_id,
+        values=[msgs.KeyValue(key=k, value=v) for k, v in h.values],
+    )])

@@ -1,0 +1,39 @@
+"""What the ROS 1 and ROS 2 bridges share that names no middleware: their client
+library imported with an error that says how to install it, and the message class a
+mapped port crosses as.
+
+The bridges never import each other (the layers in pyproject.toml); this sits below
+them. It imports no middleware itself: the bridge names its library, which is imported
+only when that bridge runs.
+"""
+
+from __future__ import annotations
+
+import importlib
+from typing import TYPE_CHECKING, Any
+
+from .._core._errors import RtcfError
+from .._core._message_types import STD_MESSAGES, message_class, std_type_name
+
+if TYPE_CHECKING:
+    from ._port_channels import MappedPort
+
+
+def import_client(module: str, middleware: str, how: str) -> Any:
+    """The client library ``module`` (rclpy, rospy) of ``--middleware middleware``; where
+    it is missing, an RtcfError saying ``how`` to get it."""
+    try:
+        return importlib.import_module(module)
+    except ImportError as exc:
+        raise RtcfError(f"--middleware {middleware} needs {module} ({exc}); {how}") from None
+
+
+def mapped_message_class(port: MappedPort, *, ros2: bool, install: str) -> type:
+    """The message class a mapped port is published or subscribed as: std_msgs' for a
+    primitive kind, else its own type; where it is missing, an RtcfError naming the
+    topic and how to ``install`` its package."""
+    name = std_type_name(port.kind, ros2=ros2) if port.kind in STD_MESSAGES else port.type_name
+    try:
+        return message_class(name)
+    except LookupError as exc:
+        raise RtcfError(f"topic {port.topic}: {exc}; install its package ({install})") from None
