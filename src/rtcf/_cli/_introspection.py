@@ -76,13 +76,21 @@ def _absolute(name: str) -> str:
     return name if name.startswith("/") else "/" + name
 
 
-def _component_info(data: dict[str, Any], name: str) -> str:
+def _entry(
+    data: dict[str, Any], table: str, key: str, name: str, what: str, listed: str
+) -> Any:
+    """The entry of ``data[table]`` whose ``key`` is ``name`` (made absolute); else an
+    RtcfError that says ``what`` was asked for and lists the ``listed`` there are."""
     full = _absolute(name)
-    by_name = {c["name"]: c for c in data["components"]}
-    if full not in by_name:
-        known = ", ".join(by_name) or "none"
-        raise RtcfError(f"runner {data['runner']}: no component {full!r} (loaded: {known})")
-    c = by_name[full]
+    by_key = {c[key]: c for c in data[table]}
+    if full not in by_key:
+        known = ", ".join(by_key) or "none"
+        raise RtcfError(f"runner {data['runner']}: no {what} {full!r} ({listed}: {known})")
+    return by_key[full]
+
+
+def _component_info(data: dict[str, Any], name: str) -> str:
+    c = _entry(data, "components", "name", name, "component", "loaded")
     lines = [f"{c['name']}  ({c['type']})"]
     if c.get("launcher"):
         lines.append(f"  launched by: {c['launcher']}")
@@ -116,12 +124,7 @@ def _component_info(data: dict[str, Any], name: str) -> str:
 
 
 def _connection_info(data: dict[str, Any], topic: str) -> str:
-    full = _absolute(topic)
-    by_topic = {c["topic"]: c for c in data["connections"]}
-    if full not in by_topic:
-        known = ", ".join(by_topic) or "none"
-        raise RtcfError(f"runner {data['runner']}: no connection {full!r} (topics: {known})")
-    c = by_topic[full]
+    c = _entry(data, "connections", "topic", topic, "connection", "topics")
     return "\n".join([
         f"{c['topic']}  [{c['type']}]",
         "  publishers: " + (", ".join(c["publishers"]) or "(none in the runner)"),

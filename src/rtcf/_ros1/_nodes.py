@@ -39,12 +39,10 @@ runner's level for it) and forwards a ``~set_logger_level`` of it to the runner'
 from __future__ import annotations
 
 import json
-import signal
 import sys
 import threading
 import time
 import xmlrpc.client
-from types import FrameType
 from typing import TYPE_CHECKING, Any
 
 from .._core._errors import RtcfError
@@ -56,8 +54,8 @@ from .._core._runner import ComponentSpec
 from .._core._settings import RunnerSettings
 from .._launch._rosconsole import from_environment as rosconsole_config
 from .._runtime._request_fields import RequestRefused, check_request
-from .._runtime._requests import Request, RequestQueue, serve_request
-from .._runtime._usage import asks_for_help, launcher_usage, runner_usage
+from .._runtime._requests import Request, RequestQueue, serve_request, stop_on_signals
+from .._runtime._usage import help_printed, launcher_usage, runner_usage
 
 if TYPE_CHECKING:
     from ._face import ComponentLogger
@@ -131,8 +129,7 @@ class _Watch:
 
 def runner_main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv if argv is None else argv)
-    if asks_for_help(argv):  # before any middleware: no node, no master
-        print(runner_usage("ros1"))
+    if help_printed(argv, runner_usage, "ros1"):
         return 0
     try:
         msg, srv = _msgs()
@@ -242,14 +239,8 @@ def runner_main(argv: list[str] | None = None) -> int:
 
     watcher = threading.Thread(target=watch, name="rtcf-ros1-watch", daemon=True)
 
-    stop_asked = threading.Event()  # a signal's STOP, kept past clear_stop
-
-    def handler(signum: int, frame: FrameType | None) -> None:
-        stop_asked.set()
-        runner.request_stop(abort=True)  # a signal: the components' safe_stop hooks run
-
-    signal.signal(signal.SIGINT, handler)
-    signal.signal(signal.SIGTERM, handler)
+    # a signal's STOP, kept past clear_stop: the components' safe_stop hooks run
+    stop_asked = stop_on_signals(lambda: runner.request_stop(abort=True))
 
     def load(payload: Any) -> str:
         spec, launcher = _spec(payload)
@@ -402,8 +393,7 @@ def runner_info(msg: Any, data: dict[str, Any]) -> Any:
 
 def launcher_main(argv: list[str] | None = None) -> int:
     argv = list(sys.argv if argv is None else argv)
-    if asks_for_help(argv):  # before any middleware: no node, no master
-        print(launcher_usage("ros1"))
+    if help_printed(argv, launcher_usage, "ros1"):
         return 0
     try:
         _, srv = _msgs()
@@ -432,15 +422,9 @@ def launcher_main(argv: list[str] | None = None) -> int:
         _say(who, "error: give PACKAGE TYPE (or the ~rt_package and ~rt_type parameters)")
         rospy.signal_shutdown("no component")
         return 2
-    stop = threading.Event()
-
-    def handler(signum: int, frame: FrameType | None) -> None:
-        stop.set()
-
     # a stop while waiting for the runner ends the wait; during the load request, it
     # unloads right after it
-    signal.signal(signal.SIGINT, handler)
-    signal.signal(signal.SIGTERM, handler)
+    stop = stop_on_signals()
     namespace = rospy.get_namespace()
     given = str(params.get("runner") or "")
     candidates = [rospy.resolve_name(given)] if given else runner_candidates(namespace)

@@ -48,8 +48,8 @@ from .._core._rates import Rate
 from .._core._runner import ComponentSpec
 from .._core._settings import RunnerSettings
 from .._runtime._request_fields import RequestRefused, check_request
-from .._runtime._requests import Request, RequestQueue, serve_request
-from .._runtime._usage import asks_for_help, launcher_usage, runner_usage
+from .._runtime._requests import Request, RequestQueue, serve_request, stop_on_signals
+from .._runtime._usage import help_printed, launcher_usage, runner_usage
 from ._face import ComponentFace, ros_logger_name
 
 WATCH_EVERY_S = 1.0
@@ -130,8 +130,7 @@ def runner_main(argv: list[str] | None = None) -> int:
     from ._bridge import Ros2Bridge
 
     argv = list(sys.argv if argv is None else argv)
-    if asks_for_help(argv):  # before any middleware: no node, no master
-        print(runner_usage("ros2"))
+    if help_printed(argv, runner_usage, "ros2"):
         return 0
     rclpy, node = _node("rt_runner", argv)
     name = node.get_fully_qualified_name()
@@ -151,6 +150,10 @@ def runner_main(argv: list[str] | None = None) -> int:
     admitted = {"load_component": "loads", "unload_component": "unloads",
                 "lifecycle_component": "lifecycle transitions", "tune_component": "tunables"}
 
+    def answered(response: Any, ok: bool, reason: str = "") -> Any:
+        response.result = SetParametersResult(successful=ok, reason=reason)
+        return response
+
     def fields(service: str, request: Any, response: Any) -> dict[str, Any] | None:
         """The request's fields, type-checked, and the request admitted by the runner's
         lock and allowed_modules; None (and the refusal in ``response``) if not. Nothing
@@ -164,7 +167,7 @@ def runner_main(argv: list[str] | None = None) -> int:
                               values.get("name") if what == "unloads" else None)
             return values
         except RequestRefused as exc:
-            response.result = SetParametersResult(successful=False, reason=str(exc))
+            answered(response, False, str(exc))
             return None
 
     def on_load(request: Any, response: Any) -> Any:
@@ -175,12 +178,10 @@ def runner_main(argv: list[str] | None = None) -> int:
             spec, _ = _spec(values)
             runner.admits("loads", spec.module, spec.full_name, spec.class_name)
         except RtcfError as exc:
-            response.result = SetParametersResult(successful=False, reason=str(exc))
-            return response
+            return answered(response, False, str(exc))
         req = submit("load", values)
         # on success the reason carries the component as the launcher shows it (JSON)
-        response.result = SetParametersResult(successful=req.ok, reason=req.reason)
-        return response
+        return answered(response, req.ok, req.reason)
 
     def on_tune(request: Any, response: Any) -> Any:
         # from the bridge thread: WorkerRunner validates and queues under its own lock
@@ -196,10 +197,9 @@ def runner_main(argv: list[str] | None = None) -> int:
                     runner.set_parameter(component, key[len("param.") :], value)
                 else:
                     raise RtcfError(f"a tune request has no parameter {key!r}")
-            response.result = SetParametersResult(successful=True)
+            return answered(response, True)
         except RtcfError as exc:
-            response.result = SetParametersResult(successful=False, reason=str(exc))
-        return response
+            return answered(response, False, str(exc))
 
     def on_lifecycle(request: Any, response: Any) -> Any:
         # from the bridge thread: waits for the loop's next iteration, which goes on
@@ -220,16 +220,14 @@ def runner_main(argv: list[str] | None = None) -> int:
         except RtcfError as exc:
             ok = False
             answer["error"] = str(exc)
-        response.result = SetParametersResult(successful=ok, reason=json.dumps(answer))
-        return response
+        return answered(response, ok, json.dumps(answer))
 
     def on_unload(request: Any, response: Any) -> Any:
         values = fields("unload_component", request, response)
         if values is None:
             return response
         req = submit("unload", str(values.get("name", "")))
-        response.result = SetParametersResult(successful=req.ok, reason=req.reason)
-        return response
+        return answered(response, req.ok, req.reason)
 
     def trigger(kind: str) -> Callable[[Any, Any], Any]:
         def on_trigger(request: Any, response: Any) -> Any:
@@ -257,14 +255,8 @@ def runner_main(argv: list[str] | None = None) -> int:
 
     node.create_timer(WATCH_EVERY_S, watch)
 
-    stop_asked = threading.Event()  # a signal's STOP, kept past clear_stop
-
-    def handler(signum: int, frame: FrameType | None) -> None:
-        stop_asked.set()
-        runner.request_stop(abort=True)  # a signal: the components' safe_stop hooks run
-
-    signal.signal(signal.SIGINT, handler)
-    signal.signal(signal.SIGTERM, handler)
+    # a signal's STOP, kept past clear_stop: the components' safe_stop hooks run
+    stop_asked = stop_on_signals(lambda: runner.request_stop(abort=True))
 
     def load(payload: Any) -> str:
         spec, launcher = _spec(payload)
@@ -361,8 +353,7 @@ def launcher_main(argv: list[str] | None = None) -> int:
     from rclpy.utilities import remove_ros_args
 
     argv = list(sys.argv if argv is None else argv)
-    if asks_for_help(argv):  # before any middleware: no node, no master
-        print(launcher_usage("ros2"))
+    if help_printed(argv, launcher_usage, "ros2"):
         return 0
     words = remove_ros_args(argv)[1:]
     is_first = any(w in ("-f", "--is_first") for w in words)

@@ -13,6 +13,7 @@ hand it over, so the queue wakes it with a ``sync`` request, which stops nothing
 from __future__ import annotations
 
 import queue
+import signal
 import threading
 from collections.abc import Callable
 from typing import TYPE_CHECKING, Any
@@ -22,6 +23,22 @@ from .._core._executor import ABORT, STOP
 
 if TYPE_CHECKING:
     from ._supervisor import WorkerRunner
+
+
+def stop_on_signals(also: Callable[[], None] | None = None) -> threading.Event:
+    """SIGINT and SIGTERM set the event returned (which stays set: a signal's stop is
+    kept past the runner's clear_stop), and call ``also``. For the rt_runner and
+    rt_launcher nodes of both middlewares."""
+    asked = threading.Event()
+
+    def handler(signum: int, frame: Any) -> None:
+        asked.set()
+        if also is not None:
+            also()
+
+    signal.signal(signal.SIGINT, handler)
+    signal.signal(signal.SIGTERM, handler)
+    return asked
 
 
 class Request:

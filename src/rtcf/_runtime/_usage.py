@@ -8,7 +8,7 @@ cannot drift from what it reads), its services, and where the docs are.
 from __future__ import annotations
 
 import textwrap
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 
 from .._core._settings import parameter_help
 
@@ -24,6 +24,15 @@ def asks_for_help(argv: Sequence[str]) -> bool:
         if word in HELP_FLAGS:
             return True
     return False
+
+
+def help_printed(argv: Sequence[str], usage: Callable[[str], str], middleware: str) -> bool:
+    """Whether ``argv`` asks for help; if so, the node's ``usage`` of ``middleware`` is
+    printed (the nodes' first step: no middleware yet, no node, no master)."""
+    if not asks_for_help(argv):
+        return False
+    print(usage(middleware))
+    return True
 
 
 def _parameters(rows: Sequence[tuple[str, str, str]]) -> list[str]:
