@@ -10,6 +10,7 @@ from __future__ import annotations
 import argparse
 import contextlib
 import datetime as dt
+import importlib.util
 import json
 import math
 import os
@@ -57,6 +58,18 @@ def require_tools(*names: str) -> None:
         if shutil.which(name) is None:
             pkg = APT_PACKAGE.get(name, name)
             print(f"{name} is missing: apt-get install -y {pkg}", file=sys.stderr)
+            sys.exit(2)
+
+
+def require_ros2() -> None:
+    """Exit 2 with one line where rclpy or std_msgs is missing (not the ROS 2 venv)."""
+    for module in ("rclpy", "std_msgs"):
+        if importlib.util.find_spec(module) is None:
+            print(
+                f"{module} is missing: run this with the ROS 2 venv "
+                "(.venv-ros2/bin/python; pip install -e '.[ros2]')",
+                file=sys.stderr,
+            )
             sys.exit(2)
 
 
@@ -341,6 +354,78 @@ def stop_process(proc: subprocess.Popen[Any], grace_s: float = 5.0) -> None:
     except subprocess.TimeoutExpired:
         proc.kill()
         proc.wait()
+
+
+class ChildProcess:
+    """A child process whose stdout and stderr are read while it runs, each by a thread
+    of its own: the subclass's ``_read_out`` and ``_read_err``, which notify ``_cond``.
+    Set what they fill before calling this ``__init__``: they start reading in it."""
+
+    def __init__(self, label: str, cmd: Sequence[str], env: Mapping[str, str]) -> None:
+        self.label = label
+        self.cmd = list(cmd)
+        self._cond = threading.Condition()
+        self.proc = subprocess.Popen(
+            self.cmd,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            stdin=subprocess.DEVNULL,
+            text=True,
+            env=dict(env),
+            cwd=REPO,
+        )
+        self._threads = [
+            threading.Thread(target=self._read_out, daemon=True),
+            threading.Thread(target=self._read_err, daemon=True),
+        ]
+        for t in self._threads:
+            t.start()
+
+    def _read_out(self) -> None:
+        raise NotImplementedError
+
+    def _read_err(self) -> None:
+        raise NotImplementedError
+
+    @property
+    def pid(self) -> int:
+        return self.proc.pid
+
+    def finish(self, timeout: float, join_s: float = 5.0) -> int:
+        """Wait for the end by itself; BenchmarkError if it takes longer."""
+        try:
+            rc = self.proc.wait(timeout)
+        except subprocess.TimeoutExpired as exc:
+            raise BenchmarkError(f"{self.label} did not end in {timeout:g} s") from exc
+        for t in self._threads:
+            t.join(join_s)
+        return rc
+
+    def stop(self, grace_s: float = 10.0) -> int | None:
+        """SIGINT (Ctrl-C: rtcf writes its report), then SIGTERM, then SIGKILL."""
+        if self.proc.poll() is None:
+            with contextlib.suppress(ProcessLookupError):
+                self.proc.send_signal(signal.SIGINT)
+            try:
+                self.proc.wait(grace_s)
+            except subprocess.TimeoutExpired:
+                stop_process(self.proc)
+        for t in self._threads:
+            t.join(5)
+        return self.proc.returncode
+
+
+@contextlib.contextmanager
+def children() -> Iterator[list[Any]]:
+    """Every ChildProcess appended to the yielded list is stopped on leaving, whatever
+    happens."""
+    started: list[Any] = []
+    try:
+        yield started
+    finally:
+        for child in reversed(started):
+            with contextlib.suppress(Exception):
+                child.stop()
 
 
 def run_rtcf(

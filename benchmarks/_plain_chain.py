@@ -19,12 +19,11 @@ from __future__ import annotations
 
 import argparse
 import gc
-import json
 import time
 from array import array
 from collections.abc import Callable
 
-from _plain_loop import CLOCK_MONOTONIC, TIMER_ABSTIME, realtime_setup, summarize
+from _plain_loop import CLOCK_MONOTONIC, TIMER_ABSTIME, print_result, realtime_setup
 
 
 class PlainRamp:
@@ -98,21 +97,8 @@ def main() -> None:
         if t1 > deadline:
             overruns += 1
     gc.enable()
-    print(
-        json.dumps(
-            {
-                "frequency_hz": args.frequency,
-                "components": len(updates),
-                "timed": args.timed,
-                "iterations": n,
-                "overruns": overruns,
-                "realtime": realtime,
-                "jitter_us": summarize(jitter, n),
-                "calc_us": summarize(calc, n),
-                "result": chain[-1].value,
-            }
-        )
-    )
+    print_result(args.frequency, n, overruns, realtime, jitter, calc, chain[-1].value,
+                 components=len(updates), timed=args.timed)
 
 
 if __name__ == "__main__":

@@ -68,6 +68,25 @@ def realtime_setup(cpu: int | None, priority: int) -> tuple[dict[str, object], A
     return realtime, nanosleep, ts, ctypes.pointer(ts)
 
 
+def print_result(frequency: float, n: int, overruns: int, realtime: dict[str, object],
+                 jitter: array[int], calc: array[int], result: float, **more: object) -> None:
+    """The loop's one JSON line (what run_reference reads), after the measured loop."""
+    print(
+        json.dumps(
+            {
+                "frequency_hz": frequency,
+                **more,
+                "iterations": n,
+                "overruns": overruns,
+                "realtime": realtime,
+                "jitter_us": summarize(jitter, n),
+                "calc_us": summarize(calc, n),
+                "result": result,
+            }
+        )
+    )
+
+
 def main() -> None:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument("--frequency", type=float, default=2000.0)
@@ -109,19 +128,7 @@ def main() -> None:
         if t1 > deadline:
             overruns += 1
     gc.enable()
-    print(
-        json.dumps(
-            {
-                "frequency_hz": args.frequency,
-                "iterations": n,
-                "overruns": overruns,
-                "realtime": realtime,
-                "jitter_us": summarize(jitter, n),
-                "calc_us": summarize(calc, n),
-                "result": r3,
-            }
-        )
-    )
+    print_result(args.frequency, n, overruns, realtime, jitter, calc, r3)
 
 
 if __name__ == "__main__":

@@ -178,18 +178,10 @@ def supervisor_main(argv: list[str]) -> int:
     args = p.parse_args(argv)
 
     # as rtcf launch prints component records: one line each on stderr
-    class Format(logging.Formatter):
-        def format(self, record: logging.LogRecord) -> str:
-            component = getattr(record, "rtcf_component", None)
-            level = "FATAL" if record.levelno >= logging.CRITICAL else record.levelname
-            if component is None:
-                return f"[{level}] [{record.name}]: {record.getMessage()}"
-            iteration = getattr(record, "rtcf_iteration", -1)
-            when = f" #{iteration}" if iteration >= 0 else ""
-            return f"[{level}]{when} [{component}]: {record.getMessage()}"
+    from rtcf._cli._main import _Formatter
 
     handler = logging.StreamHandler(sys.stderr)
-    handler.setFormatter(Format())
+    handler.setFormatter(_Formatter())
     root = logging.getLogger("rtcf")
     root.handlers[:] = [handler]
     root.setLevel(logging.INFO)

@@ -36,17 +36,14 @@ their rate on the 2-core machine the docs were measured on (see docs/performance
 from __future__ import annotations
 
 import contextlib
-import importlib.util
 import json
 import math
 import os
 import signal
 import statistics
-import subprocess
 import sys
-import threading
 import time
-from collections.abc import Iterator, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -90,30 +87,19 @@ ROS_ONLY = {"ros_timer": (FIG1, "timer"), "ros_event": (FIG1, "event"), "ros_ech
 # -- child processes ------------------------------------------------------------------
 
 
-class Child:
+class Child(c.ChildProcess):
     """A child process whose stdout and stderr lines are collected while it runs."""
 
     def __init__(self, label: str, cmd: Sequence[str], env: Mapping[str, str]) -> None:
-        self.label = label
-        self.cmd = list(cmd)
         self.stdout: list[str] = []
         self.stderr: list[str] = []
-        self._cond = threading.Condition()
-        self.proc = subprocess.Popen(
-            self.cmd,
-            stdout=subprocess.PIPE,
-            stderr=subprocess.PIPE,
-            stdin=subprocess.DEVNULL,
-            text=True,
-            env=dict(env),
-            cwd=c.REPO,
-        )
-        self._threads = [
-            threading.Thread(target=self._read, args=(self.proc.stdout, self.stdout), daemon=True),
-            threading.Thread(target=self._read, args=(self.proc.stderr, self.stderr), daemon=True),
-        ]
-        for t in self._threads:
-            t.start()
+        super().__init__(label, cmd, env)
+
+    def _read_out(self) -> None:
+        self._read(self.proc.stdout, self.stdout)
+
+    def _read_err(self) -> None:
+        self._read(self.proc.stderr, self.stderr)
 
     def _read(self, stream: Any, sink: list[str]) -> None:
         for line in iter(stream.readline, ""):
@@ -123,10 +109,6 @@ class Child:
         stream.close()
         with self._cond:
             self._cond.notify_all()
-
-    @property
-    def pid(self) -> int:
-        return self.proc.pid
 
     def tail(self, n: int = 3) -> str:
         lines = [ln.strip() for ln in self.stderr if ln.strip()]
@@ -150,41 +132,6 @@ class Child:
                         f"{self.label} did not say {text!r} in {timeout:g} s: {self.tail()}"
                     )
                 self._cond.wait(min(left, 0.2))
-
-    def finish(self, timeout: float) -> int:
-        """Wait for the end by itself; BenchmarkError if it takes longer."""
-        try:
-            rc = self.proc.wait(timeout)
-        except subprocess.TimeoutExpired as exc:
-            raise c.BenchmarkError(f"{self.label} did not end in {timeout:g} s") from exc
-        for t in self._threads:
-            t.join(5)
-        return rc
-
-    def stop(self, grace_s: float = 10.0) -> int | None:
-        """SIGINT (Ctrl-C: rtcf writes its report), then SIGTERM, then SIGKILL."""
-        if self.proc.poll() is None:
-            with contextlib.suppress(ProcessLookupError):
-                self.proc.send_signal(signal.SIGINT)
-            try:
-                self.proc.wait(grace_s)
-            except subprocess.TimeoutExpired:
-                c.stop_process(self.proc)
-        for t in self._threads:
-            t.join(5)
-        return self.proc.returncode
-
-
-@contextlib.contextmanager
-def children() -> Iterator[list[Child]]:
-    """Every Child appended to the yielded list is stopped on leaving, whatever happens."""
-    started: list[Child] = []
-    try:
-        yield started
-    finally:
-        for child in reversed(started):
-            with contextlib.suppress(Exception):
-                child.stop()
 
 
 # --hosts 2: the system runs on one "host" and the probe on another (network namespaces
@@ -335,7 +282,7 @@ def run_round(
     """One system for one round: start it, probe it, stop it."""
     prefix = f"/latency_{system}"
     result: dict[str, Any] = {"system": system}
-    with children() as started:
+    with c.children() as started:
         if system == "rtcf":
             launch = work / "fig1_latency.launch"
             launch.write_text(rtcf_launch(prefix, args.frequency))
@@ -615,17 +562,6 @@ def conditions_line(merged: dict[str, dict[str, Any]], wrapper: Sequence[str]) -
     )
 
 
-def require_ros2() -> None:
-    for module in ("rclpy", "std_msgs"):
-        if importlib.util.find_spec(module) is None:
-            print(
-                f"{module} is missing: run this with the ROS 2 venv "
-                "(.venv-ros2/bin/python; pip install -e '.[ros2]')",
-                file=sys.stderr,
-            )
-            sys.exit(2)
-
-
 def main() -> int:
     p = c.parser(__doc__.splitlines()[0], DURATION)
     p.add_argument(
@@ -655,7 +591,7 @@ def main() -> int:
         "ros2_latency-2hosts",
     )
     args = p.parse_args()
-    require_ros2()
+    c.require_ros2()
     args.duration = args.duration or (2.0 if args.quick else DURATION)
     args.rounds = max(1, args.rounds or (1 if args.quick else ROUNDS))
     args.part = args.duration / args.rounds

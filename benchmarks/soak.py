@@ -39,17 +39,13 @@ from __future__ import annotations
 import argparse
 import collections
 import contextlib
-import importlib.util
 import json
 import math
 import os
 import re
-import signal
-import subprocess
 import sys
-import threading
 import time
-from collections.abc import Iterator, Sequence
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Any
 
@@ -174,36 +170,15 @@ class LogCounter:
             self.oversize[m.group(2)] = self.oversize.get(m.group(2), 0) + int(m.group(1))
 
 
-class Proc:
+class Proc(c.ChildProcess):
     """A child whose stdout JSON events and stderr lines are handled as they come."""
 
     def __init__(self, label: str, cmd: Sequence[str], on_err: Any = None) -> None:
-        self.label = label
-        self.cmd = list(cmd)
         self.events: list[dict[str, Any]] = []
         self.other_stdout: collections.deque[str] = collections.deque(maxlen=20)
         self.stderr_tail: collections.deque[str] = collections.deque(maxlen=20)
         self._on_err = on_err
-        self._cond = threading.Condition()
-        self.proc = subprocess.Popen(
-            self.cmd,
-            stdout=subprocess.PIPE,
-            stderr=subprocess.PIPE,
-            stdin=subprocess.DEVNULL,
-            text=True,
-            env=child_env(),
-            cwd=c.REPO,
-        )
-        self._threads = [
-            threading.Thread(target=self._read_out, daemon=True),
-            threading.Thread(target=self._read_err, daemon=True),
-        ]
-        for t in self._threads:
-            t.start()
-
-    @property
-    def pid(self) -> int:
-        return self.proc.pid
+        super().__init__(label, cmd, child_env())
 
     def _read_out(self) -> None:
         assert self.proc.stdout is not None
@@ -262,36 +237,11 @@ class Proc:
     def tail(self) -> str:
         return " | ".join(list(self.stderr_tail)[-3:]) or "no output"
 
-    def finish(self, timeout: float) -> int:
-        try:
-            rc = self.proc.wait(timeout)
-        except subprocess.TimeoutExpired as exc:
-            raise c.BenchmarkError(f"{self.label} did not end in {timeout:g} s") from exc
-        for t in self._threads:
-            t.join(10)
-        return rc
+    def finish(self, timeout: float, join_s: float = 10.0) -> int:
+        return super().finish(timeout, join_s)
 
-    def stop(self, grace_s: float = 15.0) -> None:
-        if self.proc.poll() is None:
-            with contextlib.suppress(ProcessLookupError):
-                self.proc.send_signal(signal.SIGINT)
-            try:
-                self.proc.wait(grace_s)
-            except subprocess.TimeoutExpired:
-                c.stop_process(self.proc)
-        for t in self._threads:
-            t.join(5)
-
-
-@contextlib.contextmanager
-def children() -> Iterator[list[Proc]]:
-    started: list[Proc] = []
-    try:
-        yield started
-    finally:
-        for child in reversed(started):
-            with contextlib.suppress(Exception):
-                child.stop()
+    def stop(self, grace_s: float = 15.0) -> int | None:
+        return super().stop(grace_s)
 
 
 # -- what /proc says --------------------------------------------------------------------
@@ -752,17 +702,6 @@ def plot(data: dict[str, Any], path: Path) -> Path:
     return path
 
 
-def require_ros2() -> None:
-    for module in ("rclpy", "std_msgs"):
-        if importlib.util.find_spec(module) is None:
-            print(
-                f"{module} is missing: run this with the ROS 2 venv "
-                "(.venv-ros2/bin/python; pip install -e '.[ros2]')",
-                file=sys.stderr,
-            )
-            sys.exit(2)
-
-
 def main() -> int:
     p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     p.add_argument(
@@ -794,7 +733,7 @@ def main() -> int:
     if args.replot:
         path = c.RESULTS / (f"{NAME}-quick.json" if args.quick else f"{NAME}.json")
         return report(json.loads(path.read_text()), args.quick, write=False)
-    require_ros2()
+    c.require_ros2()
     minutes = args.minutes or (QUICK_MINUTES if args.quick else MINUTES)
     window_s = 5.0 if args.quick else 60.0
     sample_s = window_s
@@ -813,7 +752,7 @@ def main() -> int:
     logs = LogCounter(window)
     samples: list[dict[str, Any]] = []
     load_before = c.load_avg()
-    with c.workdir() as work, c.cpu_dma_latency_zero() as held, children() as running:
+    with c.workdir() as work, c.cpu_dma_latency_zero() as held, c.children() as running:
         counts_file = work / "counts.json"
         launch = work / "soak.launch"
         launch.write_text(soak_launch(counts_file, args.frequency))
