@@ -4,6 +4,36 @@ One copy of each, so that a change of the launch format is made once; a test tha
 needs a variant says what differs (the keyword arguments) rather than repeating it.
 """
 
+import textwrap
+
+
+def runner_xml(frequency=200.0, mode="no_wait", **params):
+    """An rt_runner node (ROS 1 format) with these parameters."""
+    extra = "".join(f'\n    <param name="{k}" value="{v}"/>' for k, v in params.items())
+    return f"""
+  <node name="rt_runner" pkg="rtcf" type="rt_runner">
+    <param name="mode" value="{mode}"/>
+    <param name="frequency" value="{frequency}"/>{extra}
+  </node>"""
+
+
+def launch_xml(body, runner=None):
+    """A launch file's text: the runner (``runner_xml()`` if not given), then ``body``."""
+    return f"<launch>{runner or runner_xml()}\n{textwrap.dedent(body)}\n</launch>\n"
+
+
+# one component writing each kind of value (tests/integration/fixtures), at 100 Hz
+EVERY_KIND = launch_xml(
+    '<node name="k" pkg="rtcf" type="rt_launcher" args="rtcf_test_components EveryKind"/>',
+    runner_xml(100.0),
+)
+
+
+def write_launch(tmp_path, body, runner=None, name="test.launch"):
+    path = tmp_path / name
+    path.write_text(launch_xml(body, runner))
+    return path
+
 # a sine into a component in a lane of its own on logical execution time (released
 # every ``every`` iterations from ``phase``, its output seen one window later), read by
 # a lock-step sink in the main lane: /x -> {name} -> /y -> sink -> /z

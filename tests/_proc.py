@@ -1,9 +1,14 @@
-"""Reading a child process's stderr while it runs (shared by the process tests)."""
+"""The rtcf processes a test starts: their environment, reading their stderr while they
+run, and stopping them (shared by the process tests of every folder; no middleware)."""
 
 import os
 import re
 import select
+import signal
 import time
+from pathlib import Path
+
+SRC = Path(__file__).resolve().parents[1] / "src"
 
 _SEEN: dict[int, str] = {}
 
@@ -42,6 +47,31 @@ def read_rest(proc, timeout=60.0):
     """Wait for ``proc`` to end; return (stdout, all of stderr including what was read)."""
     out, err = proc.communicate(timeout=timeout)
     return out, _SEEN.pop(proc.pid, "") + (err or "")
+
+
+def env_with(*fixtures):
+    """This environment with rtcf's src and the ``fixtures`` folders (of test components)
+    first on PYTHONPATH, for an rtcf process a test starts."""
+    env = dict(os.environ)
+    env["PYTHONPATH"] = os.pathsep.join([str(SRC), *map(str, fixtures), env.get("PYTHONPATH", "")])
+    return env
+
+
+def wait_running(proc, timeout=30.0, text="running until Ctrl-C"):
+    """Read ``proc``'s stderr until it says it runs (``text``); kill it if it does not."""
+    try:
+        return wait_for(proc, text, timeout)
+    except AssertionError:
+        proc.kill()
+        raise
+
+
+def stop(proc):
+    """SIGINT, as Ctrl-C would: it ends, exit 0; (stdout, all of stderr)."""
+    proc.send_signal(signal.SIGINT)
+    out, err = read_rest(proc)
+    assert proc.returncode == 0, err
+    return out, err
 
 
 def rtcf_shm_names():

@@ -1,17 +1,17 @@
-import os
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
 
+from .._proc import env_with
+
 FIXTURES = Path(__file__).parent / "fixtures"
 SRC = Path(__file__).resolve().parents[2] / "src"
 
 
 def run_rtcf(*args, timeout=120, cwd=None):
-    env = dict(os.environ)
-    env["PYTHONPATH"] = os.pathsep.join([str(SRC), str(FIXTURES), env.get("PYTHONPATH", "")])
+    env = env_with(FIXTURES)
     return subprocess.run(
         [sys.executable, "-m", "rtcf", *map(str, args)],
         capture_output=True,

@@ -4,7 +4,6 @@ the loop's values, decimated to the rate asked for."""
 
 import itertools
 import json
-import os
 import signal
 import struct
 import subprocess
@@ -14,7 +13,7 @@ import time
 import pytest
 from websockets.sync.client import connect
 
-from .._proc import read_rest, wait_for_match
+from .._proc import env_with, read_rest, wait_for_match
 from .conftest import FIXTURES, SRC, run_rtcf
 
 pytestmark = pytest.mark.integration
@@ -23,8 +22,7 @@ CASCADE = SRC / "rtcf_examples" / "launch" / "cascade.launch"
 
 
 def _start(*args):
-    env = dict(os.environ)
-    env["PYTHONPATH"] = os.pathsep.join([str(SRC), str(FIXTURES), env.get("PYTHONPATH", "")])
+    env = env_with(FIXTURES)
     return subprocess.Popen(
         [sys.executable, "-m", "rtcf", "launch", *map(str, args)], stdout=subprocess.PIPE,
         stderr=subprocess.PIPE, stdin=subprocess.DEVNULL, text=True, env=env,

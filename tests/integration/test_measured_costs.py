@@ -5,17 +5,12 @@ import json
 
 import pytest
 
+from .._launches import launch_xml, runner_xml
 from .conftest import run_rtcf
 
 pytestmark = pytest.mark.integration
 
-LAUNCH = """\
-<launch>
-  <node name="rt_runner" pkg="rtcf" type="rt_runner">
-    <param name="mode" value="wait_for_components"/>
-    <param name="num_components_expected" value="2"/>
-    <param name="frequency" value="500.0"/>
-  </node>
+LAUNCH = launch_xml("""
   <node name="a_cheap" pkg="rtcf" type="rt_launcher" args="rtcf_test_components Busy">
     <param name="every" value="2"/>
   </node>
@@ -23,8 +18,7 @@ LAUNCH = """\
     <param name="every" value="2"/>
     <param name="busy_us" value="300"/>
   </node>
-</launch>
-"""
+""", runner_xml(500.0, mode="wait_for_components", num_components_expected="2"))
 
 
 def _phases(out):

@@ -9,6 +9,7 @@ from mcap.reader import make_reader
 from rosbags.highlevel import AnyReader
 from rosbags.typesys import Stores, get_typestore
 
+from .._launches import EVERY_KIND
 from .conftest import SRC, run_rtcf
 from .test_cascade_example import N, _reference
 
@@ -84,12 +85,7 @@ def test_the_cascade_recorded_under_sim_holds_every_value_of_every_port(tmp_path
 
 def test_every_kind_of_value_and_a_topic_filter(tmp_path):
     launch = tmp_path / "kinds.launch"
-    launch.write_text(
-        '<launch><node name="rt_runner" pkg="rtcf" type="rt_runner">'
-        '<param name="frequency" value="100.0"/><param name="mode" value="no_wait"/></node>'
-        '<node name="k" pkg="rtcf" type="rt_launcher" args="rtcf_test_components EveryKind"/>'
-        "</launch>"
-    )
+    launch.write_text(EVERY_KIND)
     path = tmp_path / "kinds.mcap"
     result = run_rtcf("launch", launch, "--sim", "--duration", "0.1", "--record", path,
                       "--record-topics", "/[fibsa]")

@@ -13,6 +13,7 @@ from rosbags.typesys import Stores, get_typestore
 from rtcf._cli._recording_tools import plot_recording
 from rtcf._core._errors import ConfigurationError
 
+from .._launches import EVERY_KIND
 from .conftest import SRC, run_rtcf
 
 pytestmark = pytest.mark.integration
@@ -177,12 +178,7 @@ def test_plot_draws_the_cascade_on_a_shared_time_axis(tmp_path):
 
 def test_plot_draws_an_array_as_one_line_per_element(tmp_path):
     launch = tmp_path / "kinds.launch"
-    launch.write_text(
-        '<launch><node name="rt_runner" pkg="rtcf" type="rt_runner">'
-        '<param name="frequency" value="100.0"/><param name="mode" value="no_wait"/></node>'
-        '<node name="k" pkg="rtcf" type="rt_launcher" args="rtcf_test_components EveryKind"/>'
-        "</launch>"
-    )
+    launch.write_text(EVERY_KIND)
     rec = record(tmp_path / "kinds.mcap", launch, duration="0.1")
     fig = plot_recording(str(rec), ["/a", "/b", "/f"])
     steps = [[ln for ln in ax.get_lines() if ln.get_drawstyle() == "steps-post"] for ax in fig.axes]

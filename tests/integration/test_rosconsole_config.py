@@ -4,14 +4,14 @@ The original's logging.launch points the variable at rosconsole_settings.conf wi
 <env>; here as there, the file's levels decide which records a component makes.
 """
 
-import os
 import subprocess
 import sys
 import textwrap
 
 import pytest
 
-from .conftest import FIXTURES, SRC, run_rtcf
+from .._proc import env_with
+from .conftest import FIXTURES, run_rtcf
 
 pytestmark = pytest.mark.integration
 
@@ -77,8 +77,7 @@ def test_levels_per_component_namespace_and_root_in_the_originals_spelling(tmp_p
 def test_a_namespace_logger_and_the_process_environment(tmp_path):
     # no <env> in the launch file: the variable comes from rtcf's own environment
     path, conf = launch_file(tmp_path, "log4j.logger.ros.rtcf.arm=WARN\n", env=False)
-    env = dict(os.environ, ROSCONSOLE_CONFIG_FILE=str(conf))
-    env["PYTHONPATH"] = os.pathsep.join([str(SRC), str(FIXTURES), env.get("PYTHONPATH", "")])
+    env = dict(env_with(FIXTURES), ROSCONSOLE_CONFIG_FILE=str(conf))
     result = subprocess.run(
         [sys.executable, "-m", "rtcf", "launch", str(path), "--sim", "--duration", "2",
          "--log-level", "debug"],

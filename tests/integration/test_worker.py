@@ -11,30 +11,15 @@ import re
 import signal
 import subprocess
 import sys
-import textwrap
 import time
 
 import pytest
 
-from .._proc import read_rest, rtcf_shm_names, wait_for, wait_for_match
-from .conftest import FIXTURES, SRC, run_rtcf
+from .._launches import runner_xml, write_launch
+from .._proc import env_with, read_rest, rtcf_shm_names, wait_for, wait_for_match
+from .conftest import FIXTURES, run_rtcf
 
 pytestmark = pytest.mark.integration
-
-
-def runner_xml(frequency=200.0, **params):
-    extra = "".join(f'\n    <param name="{k}" value="{v}"/>' for k, v in params.items())
-    return f"""
-  <node name="rt_runner" pkg="rtcf" type="rt_runner">
-    <param name="mode" value="no_wait"/>
-    <param name="frequency" value="{frequency}"/>{extra}
-  </node>"""
-
-
-def write_launch(tmp_path, body, runner=None, name="test.launch"):
-    path = tmp_path / name
-    path.write_text(f"<launch>{runner or runner_xml()}\n{textwrap.dedent(body)}\n</launch>\n")
-    return path
 
 
 FACTS = """
@@ -42,9 +27,7 @@ FACTS = """
 
 
 def env():
-    e = dict(os.environ)
-    e["PYTHONPATH"] = os.pathsep.join([str(SRC), str(FIXTURES), e.get("PYTHONPATH", "")])
-    return e
+    return env_with(FIXTURES)
 
 
 def start(*args, **kwargs):

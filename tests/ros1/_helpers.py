@@ -1,26 +1,19 @@
 """Waiting on a runner process and on messages, for the ROS 1 tests."""
 
-import signal
 import time
 
 import rospy
 
-from .._proc import read_rest, wait_for
+from .. import _proc
 
 
 def wait_running(proc, timeout=30.0):
-    try:
-        return wait_for(proc, "running", timeout)
-    except AssertionError:
-        proc.kill()
-        raise
+    return _proc.wait_running(proc, timeout, "running")
 
 
 def stop(proc):
     """SIGINT, as Ctrl-C would: the loop ends, the components clean up, exit 0."""
-    proc.send_signal(signal.SIGINT)
-    out, err = read_rest(proc)
-    assert proc.returncode == 0, err
+    out, err = _proc.stop(proc)
     assert "stopped after" in err, err
     return out, err
 

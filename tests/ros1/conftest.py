@@ -26,8 +26,11 @@ import pytest
 import rosgraph
 import rospy  # fails loudly where ROS 1 is missing
 
+from .._proc import env_with
+
 FIXTURES = Path(__file__).parent / "fixtures"
-SRC = Path(__file__).resolve().parents[2] / "src"
+# the middleware-free components, some of which both middlewares' tests load
+COMMON = Path(__file__).parents[1] / "integration" / "fixtures"
 
 
 def _free_port():
@@ -63,8 +66,7 @@ def pytest_configure(config):
 
 
 def rtcf_env():
-    env = dict(os.environ)
-    env["PYTHONPATH"] = os.pathsep.join([str(SRC), str(FIXTURES), env.get("PYTHONPATH", "")])
+    env = env_with(FIXTURES, COMMON)
     return env
 
 

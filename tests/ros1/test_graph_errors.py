@@ -12,7 +12,7 @@ import rospy
 from std_srvs.srv import Trigger
 
 from .._proc import read_rest, wait_for
-from .test_nodes import STARTED, end, launcher, runner
+from .test_nodes import end_launchers_first, launcher, runner
 
 pytestmark = pytest.mark.integration
 
@@ -20,9 +20,7 @@ pytestmark = pytest.mark.integration
 @pytest.fixture(autouse=True)
 def _end_all():
     yield
-    for proc in reversed(STARTED):  # launchers first, while their runner answers
-        end(proc)
-    STARTED.clear()
+    end_launchers_first()
 
 
 def loaded(runner_name):

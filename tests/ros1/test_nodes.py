@@ -29,6 +29,14 @@ def _end_all():
     STARTED.clear()
 
 
+def end_launchers_first():
+    """End what the test started one by one, launchers first, while their runner
+    answers (an autouse fixture's teardown, where the order matters)."""
+    for proc in reversed(STARTED):
+        end(proc)
+    STARTED.clear()
+
+
 def runner(name, **params):
     proc = rt_runner(name, **params)
     STARTED.append(proc)

@@ -18,6 +18,7 @@ from roscpp.srv import GetLoggers, SetLoggerLevel
 from rosgraph_msgs.msg import Log
 from std_msgs.msg import Float64, String
 
+from .._launches import launch_xml, runner_xml
 from .._proc import read_rest, wait_for
 from ._helpers import wait_until
 from ._launch import end, ros1_env, rt_launcher, rt_runner
@@ -25,13 +26,7 @@ from .conftest import rtcf_env
 
 pytestmark = pytest.mark.integration
 
-TUNED = """\
-<launch>
-  <node name="rt_runner" pkg="rtcf" type="rt_runner">
-    <param name="mode" value="no_wait"/>
-    <param name="frequency" value="100.0"/>
-    <param name="ros_mapping_whitelist" value="/ros/.*"/>
-  </node>
+TUNED = launch_xml("""
   <group ns="ctl">
     <node name="tuned" pkg="rtcf" type="rt_launcher" args="rtcf_ros1_components Tuned">
       <remap from="in" to="/ros/tuned_in"/>
@@ -39,16 +34,9 @@ TUNED = """\
       <param name="offset" value="1"/>
     </node>
   </group>
-</launch>
-"""
+""", runner_xml(100.0, ros_mapping_whitelist="/ros/.*"))
 
-READER = """\
-<launch>
-  <node name="rt_runner" pkg="rtcf" type="rt_runner">
-    <param name="mode" value="no_wait"/>
-    <param name="frequency" value="50.0"/>
-    <param name="ros_mapping_whitelist" value="/ros/.*"/>
-  </node>
+READER = launch_xml("""
   <param name="absolute" value="launch-absolute"/>
   <group ns="cfg">
     <param name="relative" value="launch-relative"/>
@@ -62,8 +50,7 @@ READER = """\
       <remap from="both" to="/ros/reader/both"/>
     </node>
   </group>
-</launch>
-"""
+""", runner_xml(50.0, ros_mapping_whitelist="/ros/.*"))
 
 
 def launch(tmp_path, text):

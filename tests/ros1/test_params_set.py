@@ -3,19 +3,14 @@
 import pytest
 import rospy
 
+from .._launches import launch_xml, runner_xml
 from .test_parameters import forget, launch, stop
 
 pytestmark = pytest.mark.integration
 
-LAUNCH = """\
-<launch>
-  <node name="rt_runner" pkg="rtcf" type="rt_runner">
-    <param name="mode" value="no_wait"/>
-    <param name="frequency" value="100.0"/>
-  </node>
+LAUNCH = launch_xml("""
   <node name="setter" pkg="rtcf" type="rt_launcher" args="rtcf_ros1_components SetsParameters"/>
-</launch>
-"""
+""", runner_xml(100.0))
 
 
 def test_a_parameter_set_in_configure_lands_on_the_parameter_server(tmp_path, ros_node):

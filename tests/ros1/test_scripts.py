@@ -16,7 +16,7 @@ import rosbag
 
 from .._proc import read_rest
 from ._launch import ros1_env, start
-from .test_nodes import STARTED, end, launcher, runner, sum3
+from .test_nodes import STARTED, end_launchers_first, launcher, runner, sum3
 
 pytestmark = pytest.mark.integration
 
@@ -24,9 +24,7 @@ pytestmark = pytest.mark.integration
 @pytest.fixture(autouse=True)
 def _end_all():
     yield
-    for proc in reversed(STARTED):  # launchers first, while their runner answers
-        end(proc)
-    STARTED.clear()
+    end_launchers_first()
 
 
 def rosrun(*args, timeout=60):

@@ -14,8 +14,11 @@ from pathlib import Path
 import pytest
 import rclpy  # fails loudly where ROS 2 is missing
 
+from .._proc import env_with
+
 FIXTURES = Path(__file__).parent / "fixtures"
-SRC = Path(__file__).resolve().parents[2] / "src"
+# the middleware-free components, some of which both middlewares' tests load
+COMMON = Path(__file__).parents[1] / "integration" / "fixtures"
 
 # a domain of its own, so parallel runs on one machine do not see each other's topics
 DOMAIN = str(random.randint(1, 200))
@@ -24,8 +27,7 @@ os.environ["ROS_DOMAIN_ID"] = DOMAIN
 
 
 def rtcf_env():
-    env = dict(os.environ)
-    env["PYTHONPATH"] = os.pathsep.join([str(SRC), str(FIXTURES), env.get("PYTHONPATH", "")])
+    env = env_with(FIXTURES, COMMON)
     env["ROS_DOMAIN_ID"] = DOMAIN
     return env
 

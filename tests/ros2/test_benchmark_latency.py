@@ -8,14 +8,13 @@ they lose a quarter of the messages (seen in CI); the benchmark reports it.
 The subprocesses inherit the test's random ROS_DOMAIN_ID (set by conftest).
 """
 
-import json
 import os
-import subprocess
 import sys
 from pathlib import Path
 
 import pytest
 
+from .._benchmarks import run_quick
 from . import conftest
 
 pytestmark = pytest.mark.integration
@@ -25,19 +24,10 @@ ROOT = Path(__file__).resolve().parents[2]
 
 def test_latency_benchmark_runs_quick_and_writes_both_systems():
     assert os.environ["ROS_DOMAIN_ID"] == conftest.DOMAIN
-    docs = (ROOT / "docs" / "performance.md").read_text()
-    result = subprocess.run(
-        [sys.executable, str(ROOT / "benchmarks" / "ros2_latency.py"), "--quick"],
-        capture_output=True,
-        text=True,
-        cwd=ROOT,
-        timeout=600,
-        stdin=subprocess.DEVNULL,
-    )
+    result, data = run_quick("ros2_latency")  # and --quick leaves the recorded results alone
     assert result.returncode == 0, result.stdout + result.stderr
     assert "end-to-end latency [ms]" in result.stdout, result.stdout
     assert "Goals (issue 22): rtcf's output period jitter p99 is " in result.stdout
-    data = json.loads((ROOT / "benchmarks" / "results" / "ros2_latency-quick.json").read_text())
     assert data["ros_domain_id"] == conftest.DOMAIN
     systems = data["systems"]
     assert {"rtcf", "ros_timer", "ros_event", "ros_echo"} <= set(systems)
@@ -58,8 +48,6 @@ def test_latency_benchmark_runs_quick_and_writes_both_systems():
     loop = systems["rtcf"]["rtcf_loop"]
     assert loop["iterations"] > 0
     assert systems["rtcf"]["output_rate_hz"] > 0
-    # --quick leaves the recorded results alone
-    assert (ROOT / "docs" / "performance.md").read_text() == docs
 
 
 def _system(latency_p50, arrival_p99, period_p99=None, cpu=None, lost=0):

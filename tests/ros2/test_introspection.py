@@ -7,8 +7,8 @@ import sys
 
 import pytest
 
-from .conftest import rtcf_env, start_rtcf
-from .test_topics import stop, wait_running
+from .conftest import rtcf_env
+from .test_topics import launched
 
 pytestmark = pytest.mark.integration
 
@@ -28,13 +28,8 @@ def rtcf(*args):
 
 @pytest.fixture(scope="module")
 def sum_test():
-    proc = start_rtcf("launch", "rtcf_examples", "sum_test.launch", "--middleware", "ros2")
-    try:
-        wait_running(proc)
+    with launched("rtcf_examples", "sum_test.launch") as proc:
         yield proc
-    finally:
-        if proc.poll() is None:
-            stop(proc)
 
 
 def test_component_list_and_order(sum_test):

@@ -15,7 +15,7 @@ from . import test_lifecycle, test_parameters
 from .conftest import start_rtcf
 from .test_node_args import CLOCKED, clock_msg
 from .test_nodes import STARTED, end, runner, start
-from .test_topics import spin_until, wait_running
+from .test_topics import launched, spin_until, wait_running
 from .test_topics import stop as stop_rtcf
 
 pytestmark = pytest.mark.integration
@@ -111,15 +111,8 @@ def tuned_in_a_lane(tmp_path):
         '<param name="gain" value="2.0"/>\n      <param name="lane" value="tuning"/>',
     )
     assert 'value="tuning"' in text
-    path = tmp_path / "tuned.launch"
-    path.write_text(text)
-    proc = start_rtcf("launch", path, "--middleware", "ros2")
-    try:
-        wait_running(proc)
+    with launched(tmp_path / "tuned.launch", text=text) as proc:
         yield proc
-    finally:
-        if proc.poll() is None:
-            stop_rtcf(proc)
 
 
 def test_a_components_parameters_and_logger_level_in_a_lane(ros_node, tuned_in_a_lane):

@@ -16,6 +16,7 @@ from std_msgs.msg import Float64
 
 from rtcf._core import _lifecycle
 
+from .._launches import launch_xml, runner_xml
 from .._proc import wait_for
 from .conftest import start_rtcf
 from .test_nodes import STARTED, end, launcher, runner
@@ -31,13 +32,7 @@ def _end_all():
     end(*STARTED)
     STARTED.clear()
 
-LAUNCH = """\
-<launch>
-  <node name="rt_runner" pkg="rtcf" type="rt_runner">
-    <param name="mode" value="no_wait"/>
-    <param name="frequency" value="100.0"/>
-    <param name="ros_mapping_whitelist" value="/ros/.*"/>
-  </node>
+LAUNCH = launch_xml("""
   <group ns="lc">
     <node name="src" pkg="rtcf" type="rt_launcher" args="rtcf_examples Mimo">
       <remap from="out1" to="/ros/lc_src"/>
@@ -47,8 +42,7 @@ LAUNCH = """\
       <remap from="out1" to="/ros/lc_out"/>
     </node>
   </group>
-</launch>
-"""
+""", runner_xml(100.0, ros_mapping_whitelist="/ros/.*"))
 
 
 class Watch:

@@ -18,18 +18,12 @@ from rclpy.parameter import Parameter as PyParameter
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import Float64
 
-from .conftest import start_rtcf
-from .test_topics import spin_until, stop, wait_running
+from .._launches import launch_xml, runner_xml
+from .test_topics import launched, spin_until
 
 pytestmark = pytest.mark.integration
 
-LAUNCH = """\
-<launch>
-  <node name="rt_runner" pkg="rtcf" type="rt_runner">
-    <param name="mode" value="no_wait"/>
-    <param name="frequency" value="100.0"/>
-    <param name="ros_mapping_whitelist" value="/ros/.*"/>
-  </node>
+LAUNCH = launch_xml("""
   <group ns="ctl">
     <node name="tuned" pkg="rtcf" type="rt_launcher" args="rtcf_ros2_components Tuned">
       <remap from="in" to="/ros/in"/>
@@ -38,8 +32,7 @@ LAUNCH = """\
       <param name="label" value="first"/>
     </node>
   </group>
-</launch>
-"""
+""", runner_xml(100.0, ros_mapping_whitelist="/ros/.*"))
 
 
 def call(node, srv_type, name, request, timeout=15.0):
@@ -61,15 +54,8 @@ def set_params(node, **values):
 
 @pytest.fixture
 def tuned(tmp_path):
-    path = tmp_path / "tuned.launch"
-    path.write_text(LAUNCH)
-    proc = start_rtcf("launch", path, "--middleware", "ros2")
-    try:
-        wait_running(proc)
+    with launched(tmp_path / "tuned.launch", text=LAUNCH) as proc:
         yield proc
-    finally:
-        if proc.poll() is None:
-            stop(proc)
 
 
 def test_the_component_is_a_node_with_typed_described_parameters(ros_node, tuned):

@@ -3,31 +3,21 @@
 import pytest
 from rcl_interfaces.srv import GetParameters
 
-from .conftest import start_rtcf
+from .._launches import launch_xml, runner_xml
 from .test_parameters import call
-from .test_topics import stop, wait_running
+from .test_topics import launched
 
 pytestmark = pytest.mark.integration
 
-LAUNCH = """\
-<launch>
-  <node name="rt_runner" pkg="rtcf" type="rt_runner">
-    <param name="mode" value="no_wait"/>
-    <param name="frequency" value="100.0"/>
-  </node>
+LAUNCH = launch_xml("""
   <node name="setter" pkg="rtcf" type="rt_launcher" args="rtcf_ros2_components SetsParameters"/>
-</launch>
-"""
+""", runner_xml(100.0))
 
 
 def test_a_parameter_set_in_configure_is_a_parameter_of_the_components_node(
     ros_node, tmp_path
 ):
-    path = tmp_path / "set.launch"
-    path.write_text(LAUNCH)
-    proc = start_rtcf("launch", path, "--middleware", "ros2")
-    try:
-        wait_running(proc)
+    with launched(tmp_path / "set.launch", text=LAUNCH):
         own = call(ros_node, GetParameters, "/setter/get_parameters",
                    GetParameters.Request(names=["calibrated"]))
         assert [v.double_value for v in own.values] == [42.5]
@@ -35,6 +25,3 @@ def test_a_parameter_set_in_configure_is_a_parameter_of_the_components_node(
         shared = call(ros_node, GetParameters, "/rt_runner/get_parameters",
                       GetParameters.Request(names=["shared.answer"]))
         assert [v.string_value for v in shared.values] == ["yes"]
-    finally:
-        if proc.poll() is None:
-            stop(proc)

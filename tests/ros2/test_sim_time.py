@@ -9,25 +9,18 @@ from rclpy.qos import QoSProfile, ReliabilityPolicy
 from rosgraph_msgs.msg import Clock
 from std_msgs.msg import Float64, Int64
 
+from .._launches import launch_xml, runner_xml
 from .conftest import start_rtcf
 from .test_topics import spin_until, stop, wait_running
 
 pytestmark = pytest.mark.integration
 
-LAUNCH = """\
-<launch>
-  <node name="rt_runner" pkg="rtcf" type="rt_runner">
-    <param name="mode" value="no_wait"/>
-    <param name="frequency" value="10.0"/>
-    <param name="use_sim_time" value="true"/>
-    <param name="ros_mapping_whitelist" value="/ros/.*"/>
-  </node>
+LAUNCH = launch_xml("""
   <node name="echo" pkg="rtcf" type="rt_launcher" args="rtcf_ros2_components TimeEcho">
     <remap from="iteration" to="/ros/iteration"/>
     <remap from="time" to="/ros/time"/>
   </node>
-</launch>
-"""
+""", runner_xml(10.0, use_sim_time="true", ros_mapping_whitelist="/ros/.*"))
 
 
 def clock_msg(ns):

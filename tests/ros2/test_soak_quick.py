@@ -8,14 +8,13 @@ counted as dropped by the bridge, and every overrun the loop counted has its row
 The subprocesses inherit the test's random ROS_DOMAIN_ID (set by conftest).
 """
 
-import json
 import os
-import subprocess
 import sys
 from pathlib import Path
 
 import pytest
 
+from .._benchmarks import run_quick
 from . import conftest
 
 pytestmark = pytest.mark.integration
@@ -58,17 +57,8 @@ def test_soak_windows_split_the_rows_exactly_at_window_boundaries():
 
 def test_soak_quick_accounts_for_every_record_message_and_overrun():
     assert os.environ["ROS_DOMAIN_ID"] == conftest.DOMAIN
-    docs = (ROOT / "docs" / "performance.md").read_text()
-    result = subprocess.run(
-        [sys.executable, str(ROOT / "benchmarks" / "soak.py"), "--quick"],
-        capture_output=True,
-        text=True,
-        cwd=ROOT,
-        timeout=600,
-        stdin=subprocess.DEVNULL,
-    )
+    result, data = run_quick("soak")  # and --quick leaves the recorded results alone
     assert result.returncode == 0, result.stdout + result.stderr[-3000:]
-    data = json.loads((ROOT / "benchmarks" / "results" / "soak-quick.json").read_text())
     assert data["conditions"]["ros_domain_id"] == conftest.DOMAIN
     iterations = data["conditions"]["iterations_planned"]
     assert iterations == data["run"]["iterations"] == data["component_counts"]["updates"]
@@ -101,5 +91,3 @@ def test_soak_quick_accounts_for_every_record_message_and_overrun():
     assert all(s["memory_kb"]["supervisor"]["VmRSS"] > 0 for s in samples)
     assert all(s["memory_kb"]["worker"]["VmRSS"] > 0 for s in samples)
     assert (ROOT / "benchmarks" / "results" / "soak-quick.png").stat().st_size > 10_000
-    # --quick leaves the recorded results alone
-    assert (ROOT / "docs" / "performance.md").read_text() == docs

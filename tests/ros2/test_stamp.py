@@ -2,18 +2,13 @@
 
 from std_msgs.msg import Header
 
-import rtcf
 from rtcf.testing import run_components
 
+from .._stamping import StampsHeader
 
-class Stamps(rtcf.Component):
-    def configure(self):
-        self.out = self.add_output("header", Header)
 
-    def update(self):
-        header = Header(frame_id="base")
-        self.stamp_to(header.stamp)
-        self.out.write(header)
+class Stamps(StampsHeader):
+    header_type = Header
 
 
 def test_stamp_to_fills_a_ros2_header_stamp():

@@ -1,32 +1,33 @@
 """Ports mapped to ROS 2 topics, end to end through a real rclpy graph."""
 
-import signal
-import textwrap
+import contextlib
 import time
 
 import pytest
 import rclpy
 from std_msgs.msg import Float64
 
-from .._proc import read_rest, wait_for
+from .._launches import launch_xml, runner_xml
+from .._proc import stop, wait_running
 from .conftest import start_rtcf
 
 pytestmark = pytest.mark.integration
 
 
-def wait_running(proc, timeout=30.0):
+@contextlib.contextmanager
+def launched(path, *args, text=None):
+    """``rtcf launch PATH ARGS --middleware ros2`` (``text`` written to PATH first, if
+    given), running; stopped after (SIGINT, exit 0) if it still runs. Its ``said``:
+    what it said until it ran."""
+    if text is not None:
+        path.write_text(text)
+    proc = start_rtcf("launch", path, *args, "--middleware", "ros2")
     try:
-        return wait_for(proc, "running until Ctrl-C", timeout)
-    except AssertionError:
-        proc.kill()
-        raise
-
-
-def stop(proc):
-    proc.send_signal(signal.SIGINT)
-    out, err = read_rest(proc)
-    assert proc.returncode == 0, err
-    return out, err
+        proc.said = wait_running(proc)
+        yield proc
+    finally:
+        if proc.poll() is None:
+            stop(proc)
 
 
 def spin_until(node, predicate, timeout=15.0, publish=None):
@@ -84,14 +85,7 @@ def test_sum_test_outputs_three_times_the_input(ros_node, launch_file):
 def test_message_typed_ports_cross_as_serialized_bytes(ros_node, tmp_path):
     path = tmp_path / "scale.launch"
     path.write_text(
-        textwrap.dedent(
-            """\
-            <launch>
-              <node name="rt_runner" pkg="rtcf" type="rt_runner">
-                <param name="mode" value="no_wait"/>
-                <param name="frequency" value="200.0"/>
-                <param name="ros_mapping_whitelist" value="/ros/.*"/>
-              </node>
+        launch_xml("""
               <node name="a" pkg="rtcf" type="rt_launcher" args="rtcf_ros2_components ScaleMsg">
                 <remap from="in" to="/ros/x"/>
                 <remap from="out" to="/mid"/>
@@ -102,9 +96,7 @@ def test_message_typed_ports_cross_as_serialized_bytes(ros_node, tmp_path):
                 <remap from="out" to="/ros/y"/>
                 <param name="gain" value="5.0"/>
               </node>
-            </launch>
-            """
-        )
+            """, runner_xml(200.0, ros_mapping_whitelist="/ros/.*"))
     )
     proc = start_rtcf("launch", path, "--middleware", "ros2")
     try:
@@ -126,20 +118,11 @@ def test_message_typed_ports_cross_as_serialized_bytes(ros_node, tmp_path):
 def test_a_port_type_that_cannot_cross_is_a_clear_error(tmp_path):
     path = tmp_path / "bad.launch"
     path.write_text(
-        textwrap.dedent(
-            """\
-            <launch>
-              <node name="rt_runner" pkg="rtcf" type="rt_runner">
-                <param name="mode" value="no_wait"/>
-                <param name="frequency" value="100.0"/>
-                <param name="ros_mapping_whitelist" value="/ros/.*"/>
-              </node>
+        launch_xml("""
               <node name="d" pkg="rtcf" type="rt_launcher" args="rtcf_ros2_components DictOut">
                 <remap from="out" to="/ros/d"/>
               </node>
-            </launch>
-            """
-        )
+            """, runner_xml(100.0, ros_mapping_whitelist="/ros/.*"))
     )
     proc = start_rtcf("launch", path, "--middleware", "ros2", "--duration", "1")
     _, err = proc.communicate(timeout=60)
@@ -155,24 +138,14 @@ def test_qos_of_mapped_topics_is_the_runners(ros_node, tmp_path):
 
     path = tmp_path / "qos.launch"
     path.write_text(
-        textwrap.dedent(
-            """\
-            <launch>
-              <node name="rt_runner" pkg="rtcf" type="rt_runner">
-                <param name="mode" value="no_wait"/>
-                <param name="frequency" value="100.0"/>
-                <param name="ros_mapping_whitelist" value="/ros/.*"/>
-                <param name="ros_qos_reliability" value="best_effort"/>
-                <param name="ros_qos_durability" value="transient_local"/>
-                <param name="ros_qos_depth" value="3"/>
-              </node>
+        launch_xml("""
               <node name="a" pkg="rtcf" type="rt_launcher" args="rtcf_ros2_components ScaleMsg">
                 <remap from="in" to="/ros/qin"/>
                 <remap from="out" to="/ros/qout"/>
               </node>
-            </launch>
-            """
-        )
+            """, runner_xml(100.0, ros_mapping_whitelist="/ros/.*",
+                            ros_qos_reliability="best_effort",
+                            ros_qos_durability="transient_local", ros_qos_depth="3"))
     )
     proc = start_rtcf("launch", path, "--middleware", "ros2")
     try:

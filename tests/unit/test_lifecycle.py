@@ -25,6 +25,8 @@ from rtcf._core._tunables import (
     encode_update,
 )
 
+from .test_runner import Recorder
+
 P = 10_000_000  # period at 100 Hz
 EVENTS: list[str] = []
 
@@ -85,18 +87,6 @@ class Relay(Component):
         return what
 
 
-class Sink2(Component):
-    """Records (iteration, status, value) of ``y``."""
-
-    def configure(self) -> None:
-        self.inp = self.add_input("y", float)
-        self.seen: list[tuple[int, FlowStatus, Any]] = []
-
-    def update(self) -> None:
-        status = self.inp.status
-        self.seen.append((self.iteration, status, self.inp.read()))
-
-
 @pytest.fixture(autouse=True)
 def _reset() -> Any:
     EVENTS.clear()
@@ -105,12 +95,12 @@ def _reset() -> Any:
     yield
 
 
-def chain(clock: SimClock | None = None) -> tuple[Runner, Source, Relay, Sink2]:
+def chain(clock: SimClock | None = None) -> tuple[Runner, Source, Relay, Recorder]:
     r = Runner(RunnerSettings(frequency=100.0), clock=clock or SimClock(), log_sink=Sink())
     src = r.load(ComponentSpec("src", Source))
     relay = r.load(ComponentSpec("relay", Relay))
-    sink = r.load(ComponentSpec("sink", Sink2))
-    assert isinstance(src, Source) and isinstance(relay, Relay) and isinstance(sink, Sink2)
+    sink = r.load(ComponentSpec("sink", Recorder))
+    assert isinstance(src, Source) and isinstance(relay, Relay) and isinstance(sink, Recorder)
     return r, src, relay, sink
 
 
@@ -407,7 +397,7 @@ def test_listeners_hear_transitions_and_what_a_fault_policy_takes_out() -> None:
     r = Runner(RunnerSettings(frequency=100.0), clock=SimClock(), log_sink=Sink())
     r.load(ComponentSpec("src", Breaks, policy=FailurePolicy(on_error="deactivate")))
     r.load(ComponentSpec("relay", Relay))
-    r.load(ComponentSpec("sink", Sink2))
+    r.load(ComponentSpec("sink", Recorder))
     heard: list[tuple[str, str, str]] = []
     r.transition_listeners.append(lambda n, o: heard.append((n, o.label, o.end_label)))
     r.run(6)
