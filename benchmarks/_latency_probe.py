@@ -23,10 +23,11 @@ import argparse
 import itertools
 import json
 import random
-import signal
 import sys
 import time
 from typing import Any
+
+from _ros2_node import start_node
 
 
 def main() -> int:
@@ -48,17 +49,9 @@ def main() -> int:
 
     import rclpy
     from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
-    from rclpy.node import Node
-    from rclpy.signals import SignalHandlerOptions
     from std_msgs.msg import Float64
 
-    def stop(signum: int, frame: Any) -> None:
-        raise KeyboardInterrupt
-
-    rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
-    signal.signal(signal.SIGINT, stop)
-    signal.signal(signal.SIGTERM, stop)
-    node = Node("rtcf_latency_probe")
+    node = start_node("rtcf_latency_probe")
     now = time.monotonic_ns
     sent: dict[int, int] = {}  # sequence number -> send time [ns]
     arrived: dict[int, int] = {}  # sequence number -> first arrival [ns]

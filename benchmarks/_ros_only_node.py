@@ -21,10 +21,10 @@ publisher exist.
 from __future__ import annotations
 
 import argparse
-import contextlib
-import signal
 import sys
 from typing import Any
+
+from _ros2_node import spin_until_stopped, start_node
 
 
 def _topics(text: str) -> list[str]:
@@ -41,20 +41,9 @@ def main() -> int:
     p.add_argument("--mode", choices=["timer", "event"], default="timer")
     args = p.parse_args()
 
-    import rclpy
-    from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
-    from rclpy.node import Node
-    from rclpy.signals import SignalHandlerOptions
     from std_msgs.msg import Float64
 
-    def stop(signum: int, frame: Any) -> None:
-        raise KeyboardInterrupt
-
-    # our own handlers: rclpy's would shut the context down under a running callback
-    rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
-    signal.signal(signal.SIGINT, stop)
-    signal.signal(signal.SIGTERM, stop)
-    node = Node(args.name)
+    node = start_node(args.name)
     latest: dict[str, float] = {}
     pub = node.create_publisher(Float64, args.output, 10)
     out = Float64()
@@ -88,19 +77,7 @@ def main() -> int:
     if args.mode == "timer":
         node.create_timer(1.0 / args.rate, publish)
 
-    executor = SingleThreadedExecutor()
-    executor.add_node(node)
-    print("ready", flush=True)
-    try:
-        while True:  # a timeout, so that a signal is seen even while no message comes
-            executor.spin_once(timeout_sec=0.1)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        executor.shutdown()
-        node.destroy_node()
-        with contextlib.suppress(Exception):
-            rclpy.try_shutdown()
+    spin_until_stopped(node, lambda: print("ready", flush=True))
     return 0
 
 

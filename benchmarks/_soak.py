@@ -270,7 +270,6 @@ def supervisor_main(argv: list[str]) -> int:
 
 def subscriber_main(argv: list[str]) -> int:
     import argparse
-    import signal
     import time
 
     p = argparse.ArgumentParser(prog="_soak.py subscriber")
@@ -280,20 +279,11 @@ def subscriber_main(argv: list[str]) -> int:
     p.add_argument("--window", type=int, default=1, help="count arrivals per N numbers")
     args = p.parse_args(argv)
 
-    import rclpy
-    from rclpy.executors import ExternalShutdownException, SingleThreadedExecutor
-    from rclpy.node import Node
+    from _ros2_node import spin_until_stopped, start_node
     from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
-    from rclpy.signals import SignalHandlerOptions
     from std_msgs.msg import Int64
 
-    def stop(signum: int, frame: Any) -> None:
-        raise KeyboardInterrupt
-
-    rclpy.init(signal_handler_options=SignalHandlerOptions.NO)
-    signal.signal(signal.SIGINT, stop)
-    signal.signal(signal.SIGTERM, stop)
-    node = Node("rtcf_soak_counter")
+    node = start_node("rtcf_soak_counter")
     s: dict[str, float] = {
         "received": 0,
         "first": 0,
@@ -337,19 +327,7 @@ def subscriber_main(argv: list[str]) -> int:
         sys.stdout.flush()
 
     node.create_timer(args.progress_s, progress)
-    executor = SingleThreadedExecutor()
-    executor.add_node(node)
-    sys.stdout.write(json.dumps({"event": "ready"}) + "\n")
-    sys.stdout.flush()
-    try:
-        while True:
-            executor.spin_once(timeout_sec=0.1)
-    except (KeyboardInterrupt, ExternalShutdownException):
-        pass
-    finally:
-        executor.shutdown()
-        node.destroy_node()
-        rclpy.try_shutdown()
+    spin_until_stopped(node, lambda: _emit("ready"))
     final = {"event": "final", **s, "gap_runs": gap_runs, "per_window": per_window}
     sys.stdout.write(json.dumps(final) + "\n")
     sys.stdout.flush()

@@ -7,9 +7,14 @@ needs a variant says what differs (the keyword arguments) rather than repeating 
 import textwrap
 
 
+def _params(before, params):
+    """``<param>`` elements (ROS 1 format), each after ``before``."""
+    return "".join(f'{before}<param name="{k}" value="{v}"/>' for k, v in params.items())
+
+
 def runner_xml(frequency=200.0, mode="no_wait", **params):
     """An rt_runner node (ROS 1 format) with these parameters."""
-    extra = "".join(f'\n    <param name="{k}" value="{v}"/>' for k, v in params.items())
+    extra = _params("\n    ", params)
     return f"""
   <node name="rt_runner" pkg="rtcf" type="rt_runner">
     <param name="mode" value="{mode}"/>
@@ -27,6 +32,18 @@ EVERY_KIND = launch_xml(
     '<node name="k" pkg="rtcf" type="rt_launcher" args="rtcf_test_components EveryKind"/>',
     runner_xml(100.0),
 )
+
+
+def tuned_launch(package, topic_in, topic_out, **params):
+    """/ctl/tuned, the Tuned component of ``package`` (either ROS's test components),
+    its in and out mapped to ROS topics, in a 100 Hz runner."""
+    return launch_xml(f"""
+  <group ns="ctl">
+    <node name="tuned" pkg="rtcf" type="rt_launcher" args="{package} Tuned">
+      <remap from="in" to="{topic_in}"/>
+      <remap from="out" to="{topic_out}"/>{_params(chr(10) + "      ", params)}
+    </node>
+  </group>""", runner_xml(100.0, ros_mapping_whitelist="/ros/.*"))
 
 
 def write_launch(tmp_path, body, runner=None, name="test.launch"):
@@ -61,6 +78,6 @@ _LET = """<launch>
 def let_launch(*, frequency=1000.0, name="slow", cls="Identity", every=10, phase=3,
                lane="mpc", **params):
     """The LET launch (ROS 1 format); ``params`` are more parameters of its component."""
-    extra = "".join(f'<param name="{k}" value="{v}"/>' for k, v in params.items())
+    extra = _params("", params)
     return _LET.format(frequency=frequency, name=name, cls=cls, every=every, phase=phase,
                        lane=lane, params=extra)

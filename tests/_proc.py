@@ -5,6 +5,8 @@ import os
 import re
 import select
 import signal
+import subprocess
+import sys
 import time
 from pathlib import Path
 
@@ -55,6 +57,19 @@ def env_with(*fixtures):
     env = dict(os.environ)
     env["PYTHONPATH"] = os.pathsep.join([str(SRC), *map(str, fixtures), env.get("PYTHONPATH", "")])
     return env
+
+
+def start_rtcf(env, *args, **kwargs):
+    """``python -m rtcf ARGS`` in ``env``: stdout and stderr piped (text), no stdin."""
+    return subprocess.Popen(
+        [sys.executable, "-m", "rtcf", *map(str, args)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        stdin=subprocess.DEVNULL,
+        text=True,
+        env=env,
+        **kwargs,
+    )
 
 
 def wait_running(proc, timeout=30.0, text="running until Ctrl-C"):

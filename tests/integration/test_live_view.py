@@ -6,14 +6,12 @@ import itertools
 import json
 import signal
 import struct
-import subprocess
-import sys
 import time
 
 import pytest
 from websockets.sync.client import connect
 
-from .._proc import env_with, read_rest, wait_for_match
+from .._proc import env_with, read_rest, start_rtcf, wait_for_match
 from .conftest import FIXTURES, SRC, run_rtcf
 
 pytestmark = pytest.mark.integration
@@ -22,11 +20,7 @@ CASCADE = SRC / "rtcf_examples" / "launch" / "cascade.launch"
 
 
 def _start(*args):
-    env = env_with(FIXTURES)
-    return subprocess.Popen(
-        [sys.executable, "-m", "rtcf", "launch", *map(str, args)], stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE, stdin=subprocess.DEVNULL, text=True, env=env,
-    )
+    return start_rtcf(env_with(FIXTURES), "launch", *args)
 
 
 def test_a_foxglove_client_receives_the_loops_values():

@@ -16,7 +16,7 @@ import time
 import pytest
 
 from .._launches import runner_xml, write_launch
-from .._proc import env_with, read_rest, rtcf_shm_names, wait_for, wait_for_match
+from .._proc import env_with, read_rest, rtcf_shm_names, start_rtcf, wait_for, wait_for_match
 from .conftest import FIXTURES, run_rtcf
 
 pytestmark = pytest.mark.integration
@@ -31,15 +31,7 @@ def env():
 
 
 def start(*args, **kwargs):
-    return subprocess.Popen(
-        [sys.executable, "-m", "rtcf", *map(str, args)],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        stdin=subprocess.DEVNULL,
-        text=True,
-        env=env(),
-        **kwargs,
-    )
+    return start_rtcf(env(), *args, **kwargs)
 
 
 def alive(pid):

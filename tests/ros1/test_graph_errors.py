@@ -28,21 +28,24 @@ def loaded(runner_name):
     return [c["name"] for c in json.loads(answer.message)["components"]]
 
 
+def refused(launcher_proc):
+    """What a launcher said that its runner refused (it ends with exit 1)."""
+    _, err = read_rest(launcher_proc, timeout=60)
+    assert launcher_proc.returncode == 1, err
+    return err
+
+
 def test_a_cycle_or_a_second_producer_is_refused_and_the_runner_keeps_running(ros_node):
     r = runner("/rgraph")
     x = launcher("/rgraph", "x", "Identity", "in_port:=/b", "out_port:=/a")
     wait_for(x, "loaded into", timeout=30)
-    y = launcher("/rgraph", "y", "Identity", "in_port:=/a", "out_port:=/b")
-    _, err = read_rest(y, timeout=60)
-    assert y.returncode == 1, err
+    err = refused(launcher("/rgraph", "y", "Identity", "in_port:=/a", "out_port:=/b"))
     assert "refused to load rtcf_examples.Identity" in err
     assert "cycle in the data flow: /x -[/a]-> /y -[/b]-> /x" in err
     ok = launcher("/rgraph", "ok", "Identity", "in_port:=/a", "out_port:=/d")
     wait_for(ok, "loaded into", timeout=30)
     # /x writes /a, which /ok reads: a second writer is refused
-    z = launcher("/rgraph", "z", "Identity", "in_port:=/c", "out_port:=/a")
-    _, err = read_rest(z, timeout=60)
-    assert z.returncode == 1, err
+    err = refused(launcher("/rgraph", "z", "Identity", "in_port:=/c", "out_port:=/a"))
     assert "topic '/a' has 2 producers" in err
     assert r.poll() is None  # the runner runs on, with what it had
     assert sorted(loaded("/rgraph")) == ["/ok", "/x"]

@@ -10,7 +10,6 @@
 """
 
 import subprocess
-import sys
 
 import pytest
 import rospy
@@ -18,23 +17,16 @@ from roscpp.srv import GetLoggers, SetLoggerLevel
 from rosgraph_msgs.msg import Log
 from std_msgs.msg import Float64, String
 
-from .._launches import launch_xml, runner_xml
-from .._proc import read_rest, wait_for
+from .. import _proc
+from .._launches import launch_xml, runner_xml, tuned_launch
+from .._proc import start_rtcf, wait_for, wait_running
 from ._helpers import wait_until
 from ._launch import end, ros1_env, rt_launcher, rt_runner
 from .conftest import rtcf_env
 
 pytestmark = pytest.mark.integration
 
-TUNED = launch_xml("""
-  <group ns="ctl">
-    <node name="tuned" pkg="rtcf" type="rt_launcher" args="rtcf_ros1_components Tuned">
-      <remap from="in" to="/ros/tuned_in"/>
-      <remap from="out" to="/ros/tuned_out"/>
-      <param name="offset" value="1"/>
-    </node>
-  </group>
-""", runner_xml(100.0, ros_mapping_whitelist="/ros/.*"))
+TUNED = tuned_launch("rtcf_ros1_components", "/ros/tuned_in", "/ros/tuned_out", offset=1)
 
 READER = launch_xml("""
   <param name="absolute" value="launch-absolute"/>
@@ -56,27 +48,13 @@ READER = launch_xml("""
 def launch(tmp_path, text):
     path = tmp_path / "test.launch"
     path.write_text(text)
-    proc = subprocess.Popen(
-        [sys.executable, "-m", "rtcf", "launch", str(path), "--middleware", "ros1"],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        stdin=subprocess.DEVNULL,
-        text=True,
-        env=rtcf_env(),
-    )
-    try:
-        wait_for(proc, "running until Ctrl-C")
-    except AssertionError:
-        proc.kill()
-        raise
+    proc = start_rtcf(rtcf_env(), "launch", path, "--middleware", "ros1")
+    wait_running(proc)
     return proc
 
 
 def stop(proc):
-    proc.send_signal(2)
-    _, err = read_rest(proc)
-    assert proc.returncode == 0, err
-    return err
+    return _proc.stop(proc)[1]
 
 
 @pytest.fixture

@@ -7,13 +7,12 @@ import: missing ROS in CI is a failure, not a skip.
 import itertools
 import os
 import random
-import subprocess
-import sys
 from pathlib import Path
 
 import pytest
 import rclpy  # fails loudly where ROS 2 is missing
 
+from .. import _proc
 from .._proc import env_with
 
 FIXTURES = Path(__file__).parent / "fixtures"
@@ -33,14 +32,7 @@ def rtcf_env():
 
 
 def start_rtcf(*args):
-    return subprocess.Popen(
-        [sys.executable, "-m", "rtcf", *map(str, args)],
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        stdin=subprocess.DEVNULL,
-        text=True,
-        env=rtcf_env(),
-    )
+    return _proc.start_rtcf(rtcf_env(), *args)
 
 
 @pytest.fixture

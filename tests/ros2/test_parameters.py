@@ -18,21 +18,14 @@ from rclpy.parameter import Parameter as PyParameter
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from std_msgs.msg import Float64
 
-from .._launches import launch_xml, runner_xml
+from .._launches import tuned_launch
 from .test_topics import launched, spin_until
 
 pytestmark = pytest.mark.integration
 
-LAUNCH = launch_xml("""
-  <group ns="ctl">
-    <node name="tuned" pkg="rtcf" type="rt_launcher" args="rtcf_ros2_components Tuned">
-      <remap from="in" to="/ros/in"/>
-      <remap from="out" to="/ros/out"/>
-      <param name="gain" value="2.0"/>
-      <param name="label" value="first"/>
-    </node>
-  </group>
-""", runner_xml(100.0, ros_mapping_whitelist="/ros/.*"))
+LAUNCH = tuned_launch(
+    "rtcf_ros2_components", "/ros/in", "/ros/out", gain="2.0", label="first"
+)
 
 
 def call(node, srv_type, name, request, timeout=15.0):
