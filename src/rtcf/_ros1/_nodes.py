@@ -79,6 +79,14 @@ def _msgs() -> tuple[Any, Any]:
     return rtcf_msgs.msg, rtcf_msgs.srv
 
 
+def _ros1() -> tuple[Any, Any, Any]:
+    """rospy, and rtcf_msgs' msg and srv modules: what both nodes need first."""
+    msg, srv = _msgs()
+    from ._bridge import _import_rospy
+
+    return _import_rospy(), msg, srv
+
+
 # -- presence on the master ------------------------------------------------------------
 
 
@@ -132,10 +140,9 @@ def runner_main(argv: list[str] | None = None) -> int:
     if help_printed(argv, runner_usage, "ros1"):
         return 0
     try:
-        msg, srv = _msgs()
-        from ._bridge import Ros1Bridge, _import_rospy
+        rospy, msg, srv = _ros1()
+        from ._bridge import Ros1Bridge
 
-        rospy = _import_rospy()
         bridge = Ros1Bridge("rt_runner", None, argv[1:])
     except RtcfError as exc:
         _say("rt_runner", f"error: {exc}")
@@ -396,12 +403,11 @@ def launcher_main(argv: list[str] | None = None) -> int:
     if help_printed(argv, launcher_usage, "ros1"):
         return 0
     try:
-        _, srv = _msgs()
-        from ._bridge import _import_rospy, _keep_root_logging
-
-        rospy = _import_rospy()
+        rospy, _, srv = _ros1()
         import rosgraph
         import rosgraph.names
+
+        from ._bridge import _keep_root_logging
 
         if not rosgraph.is_master_online():
             raise RtcfError(f"no ROS master answers at {rosgraph.get_master_uri()}")
