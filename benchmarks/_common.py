@@ -344,6 +344,11 @@ def _reader(stream: Any, sink: list[tuple[float, str]]) -> None:
     stream.close()
 
 
+def rtcf_command(*args: object) -> list[str]:
+    """``python -m rtcf ARGS``, with this interpreter."""
+    return [sys.executable, "-m", "rtcf", *map(str, args)]
+
+
 def stop_process(proc: subprocess.Popen[Any], grace_s: float = 5.0) -> None:
     """Terminate a child we started (SIGTERM, then SIGKILL), by its own id."""
     if proc.poll() is not None:
@@ -442,19 +447,8 @@ def run_rtcf(
 
     ``env``: variables set for rtcf on top of this process's environment.
     """
-    cmd = [
-        *wrapper,
-        sys.executable,
-        "-m",
-        "rtcf",
-        "launch",
-        str(launch),
-        *extra_args,
-        "--duration",
-        f"{duration_s:g}",
-        "--report",
-        str(report_dir),
-    ]
+    cmd = [*wrapper, *rtcf_command("launch", launch, *extra_args, "--duration",
+                                   f"{duration_s:g}", "--report", report_dir)]
     out: list[tuple[float, str]] = []
     err: list[tuple[float, str]] = []
     steal0 = steal_ms()
@@ -575,6 +569,17 @@ def run_rtcf_on(hot_path: str, launch: Path, duration_s: float, report_dir: Path
         raise BenchmarkError(f"rtcf timed its components by {hot.get('component_clock')!r}, "
                              "not by clock_gettime")
     return run
+
+
+def against_plain(rt: Mapping[str, Any], plain_rt: Mapping[str, Any], plain: str) -> str:
+    """How rtcf (``rt``: its realtime conditions) and the ``plain`` reference ran, for
+    the docs' sections."""
+    return (
+        f"rtcf reported scheduler {rt.get('scheduler')}, mlockall {rt.get('mlockall')}"
+        + (f", run under `{rt['wrapper']}`" if rt.get("wrapper") else "")
+        + f"; {plain}: {plain_rt['scheduler']} {plain_rt['priority']}, "
+        f"mlockall {plain_rt['mlockall']}, CPUs {plain_rt['cpu_affinity']}"
+    )
 
 
 def rt_conditions(run: RtcfRun) -> dict[str, Any]:

@@ -251,12 +251,7 @@ def main() -> int:
     if not args.quick:
         rt = runs["compiled"][0]["realtime"]
         plain_rt = runs["plain"][0]["realtime"]
-        how = (
-            f"rtcf reported scheduler {rt.get('scheduler')}, mlockall {rt.get('mlockall')}"
-            + (f", run under `{rt['wrapper']}`" if rt.get("wrapper") else "")
-            + f"; the plain chain: {plain_rt['scheduler']} {plain_rt['priority']}, "
-            f"mlockall {plain_rt['mlockall']}, CPUs {plain_rt['cpu_affinity']}"
-        )
+        how = c.against_plain(rt, plain_rt, "the plain chain")
         body = "\n".join(
             [
                 f"A chain of one `Ramp` and {COMPONENTS - 1} `Gain` components (each reads a "

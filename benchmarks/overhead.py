@@ -361,12 +361,7 @@ def main() -> int:
     print(f"wrote {path.relative_to(c.REPO)}")
     if not args.quick:
         rtc = c.rt_conditions(run)
-        how = (
-            f"rtcf reported scheduler {rtc.get('scheduler')}, mlockall {rtc.get('mlockall')}"
-            + (f", run under `{rtc['wrapper']}`" if rtc.get("wrapper") else "")
-            + f"; the plain loop: {plain['realtime']['scheduler']} {plain['realtime']['priority']}"
-            f", mlockall {plain['realtime']['mlockall']}, CPUs {plain['realtime']['cpu_affinity']}"
-        )
+        how = c.against_plain(rtc, plain["realtime"], "the plain loop")
         body = "\n".join(
             [
                 f"Fig. 1 at {FREQUENCY:g} Hz, idle, **{duration:g} s** per run, rtcf on its "

@@ -223,20 +223,8 @@ def rtcf_launch(prefix: str, frequency: float) -> str:
 def start_rtcf(
     launch: Path, report: Path, wrapper: Sequence[str], started: list[Child]
 ) -> list[Child]:
-    cmd = [
-        *PLACE["system"],
-        *wrapper,
-        sys.executable,
-        "-m",
-        "rtcf",
-        "launch",
-        str(launch),
-        "--middleware",
-        "ros2",
-        "--quiet",
-        "--report",
-        str(report),
-    ]
+    cmd = [*PLACE["system"], *wrapper, *c.rtcf_command(
+        "launch", launch, "--middleware", "ros2", "--quiet", "--report", report)]
     child = Child("rtcf launch", cmd, child_env())
     started.append(child)
     child.wait_for("running until Ctrl-C", 60)
