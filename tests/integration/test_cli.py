@@ -5,12 +5,13 @@ import os
 import signal
 import subprocess
 import sys
-import textwrap
 import time
 
 import pytest
 
+from .. import _launches
 from .conftest import FIXTURES, SRC, run_rtcf
+from .test_worker import bomb
 
 pytestmark = pytest.mark.integration
 
@@ -23,9 +24,7 @@ RUNNER = """
 
 
 def write_launch(tmp_path, body, name="test.launch"):
-    path = tmp_path / name
-    path.write_text(f"<launch>{RUNNER}\n{textwrap.dedent(body)}\n</launch>\n")
-    return path
+    return _launches.write_launch(tmp_path, body, RUNNER, name)
 
 
 def error_line(result):
@@ -243,13 +242,7 @@ def test_too_few_components_for_wait_for_components(tmp_path):
 
 
 def test_update_exception_names_component_and_iteration_and_runs_teardown(tmp_path):
-    path = write_launch(
-        tmp_path,
-        """
-      <node name="bomb" pkg="rtcf" type="rt_launcher" args="rtcf_test_components Explodes">
-        <param name="at" value="7"/>
-      </node>""",
-    )
+    path = write_launch(tmp_path, bomb(7))
     result = run_rtcf("launch", path, "--sim", "--duration", "1")
     assert result.returncode == 1
     line = error_line(result)

@@ -22,6 +22,14 @@ from .conftest import FIXTURES, run_rtcf
 pytestmark = pytest.mark.integration
 
 
+def bomb(at):
+    """/bomb, raising in its update at iteration ``at`` (-1: never)."""
+    return f"""
+  <node name="bomb" pkg="rtcf" type="rt_launcher" args="rtcf_test_components Explodes">
+    <param name="at" value="{at}"/>
+  </node>"""
+
+
 FACTS = """
   <node name="facts" pkg="rtcf" type="rt_launcher" args="rtcf_test_components WorkerFacts"/>"""
 
@@ -152,13 +160,7 @@ def test_nothing_is_left_in_dev_shm_after_a_normal_run(tmp_path):
     ids=["SIGINT", "SIGTERM", "Ctrl-C to the process group"],
 )
 def test_a_signal_stops_the_loop_runs_the_hooks_and_cleans_up(tmp_path, sig, group):
-    path = write_launch(
-        tmp_path,
-        """
-      <node name="bomb" pkg="rtcf" type="rt_launcher" args="rtcf_test_components Explodes">
-        <param name="at" value="-1"/>
-      </node>""",
-    )
+    path = write_launch(tmp_path, bomb(-1))
     proc = start("launch", path, start_new_session=group)
     m = wait_for_match(proc, r"loop in worker process (\d+)")
     worker = int(m.group(1))
@@ -196,13 +198,7 @@ def test_a_worker_killed_with_sigkill_is_reported_and_cleaned_up(tmp_path):
 
 
 def test_a_supervisor_killed_with_sigkill_takes_its_worker_along(tmp_path):
-    path = write_launch(
-        tmp_path,
-        """
-      <node name="bomb" pkg="rtcf" type="rt_launcher" args="rtcf_test_components Explodes">
-        <param name="at" value="-1"/>
-      </node>""",
-    )
+    path = write_launch(tmp_path, bomb(-1))
     proc = start("launch", path)
     m = wait_for_match(proc, r"loop in worker process (\d+)")
     worker = int(m.group(1))
@@ -215,13 +211,7 @@ def test_a_supervisor_killed_with_sigkill_takes_its_worker_along(tmp_path):
 
 
 def test_a_raising_component_ends_the_run_with_its_name_and_cleans_up(tmp_path):
-    path = write_launch(
-        tmp_path,
-        """
-      <node name="bomb" pkg="rtcf" type="rt_launcher" args="rtcf_test_components Explodes">
-        <param name="at" value="5"/>
-      </node>""",
-    )
+    path = write_launch(tmp_path, bomb(5))
     proc = start("launch", path, "--duration", "10")
     _out, err = read_rest(proc, 60)
     assert proc.returncode == 1, err
@@ -297,13 +287,7 @@ def test_live_status_line_on_a_terminal(tmp_path):
 
 
 def test_debug_shows_the_traceback_from_the_worker(tmp_path):
-    path = write_launch(
-        tmp_path,
-        """
-      <node name="bomb" pkg="rtcf" type="rt_launcher" args="rtcf_test_components Explodes">
-        <param name="at" value="2"/>
-      </node>""",
-    )
+    path = write_launch(tmp_path, bomb(2))
     result = run_rtcf("launch", path, "--sim", "--duration", "1", "--debug")
     assert result.returncode == 1
     assert "Traceback" in result.stderr
