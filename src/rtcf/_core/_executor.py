@@ -31,12 +31,9 @@ from ._hotpath import Calculation, CompiledPlans, component_clock
 from ._interpreted import SKIPPED as SKIPPED  # a component's column when it did not run
 from ._loop_state import LoopState
 from ._timing import (
-    COL_CALC,
+    CALCULATION_COLUMNS,
     COL_ITERATION,
-    COL_JITTER,
     COL_OVERRAN,
-    COL_PHASE,
-    COL_SCHEDULED,
     TimingWriter,
 )
 from ._timing import FIXED_COLUMNS as F
@@ -296,7 +293,7 @@ class Executor:
         calculation = Calculation(
             self, state, feeders, now, sleep_until, native_now, native_sleep, running, words,
             scratch, origin, ros_offset, timing.width,
-            (COL_ITERATION, COL_SCHEDULED, COL_JITTER, COL_CALC, COL_PHASE),
+            CALCULATION_COLUMNS,
             component_clock()[1] if native_now else 0.0,
         )
         iterate = calculation.iterate
