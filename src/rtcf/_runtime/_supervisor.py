@@ -22,11 +22,10 @@ import sys
 import threading
 import time
 from collections.abc import Callable, Mapping
-from dataclasses import dataclass
 from multiprocessing.connection import Connection
 from typing import Any, Protocol
 
-from .._core._errors import ConfigurationError, RtcfError
+from .._core._errors import RtcfError
 from .._core._executor import ABORT, CONTROL, STOP
 from .._core._faults import Fault, SafeStopOutcome
 from .._core._lane_names import MAIN_LANE
@@ -51,7 +50,6 @@ from .._core._timing import (
     FIXED_COLUMNS,
     LoopSpan,
     TimingAggregate,
-    TimingSummary,
     ring_capacity,
     row_size,
 )
@@ -64,13 +62,17 @@ from .._core._tunables import (
     TunableSpec,
     encode_update,
 )
+from ._admission import access_of
 from ._doorbell import ClockFeed, Doorbell, RungMailbox
 from ._heap import fill_numpy_cache
+from ._lane_workers import LockedSink, bridged_channels, merge_connections, share_out, whole_loop
 from ._lanes import LaneLayout, abort_all, init_words, layout, reset_stop
+from ._live_status import DIAGNOSTICS_EVERY_S, STATUS_EVERY_S, LiveStatus
 from ._port_channels import OUTPUT_RING_RECORDS, MailboxFanOut, MappedPort, segment_size
-from ._recording import RecordedTopic, RecordingDrain, RecordSink, relaid
+from ._recording import RecordedTopic, RecordingDrain, RecordSink
 from ._recording import segment_size as recording_segment_size
 from ._request_fields import RequestRefused
+from ._runs import Run, chain_rows, counts_only, note, with_timing_rows
 from ._shm import Segment, outgoing, send_segments
 from ._worker import (
     CLOCK_MAILBOX_OFFSET,
@@ -81,47 +83,9 @@ from ._worker import (
     WORKER_MODULE,
     error_from_dict,
 )
+from ._worker_process import POLL_S, WorkerDied, keep_off_cpus, worker_env
 
-POLL_S = 0.01  # how often the supervisor drains while it waits for the worker
 PUMP_ROWS = 8 * CONSUME_BATCH  # timing rows aggregated per pump, at most
-STATUS_EVERY_S = 0.5
-DIAGNOSTICS_EVERY_S = 1.0
-
-
-class WorkerDied(RtcfError):
-    """The worker process ended without being asked to."""
-
-
-@dataclass
-class LiveStatus:
-    """What the status line shows while the loop runs."""
-
-    iterations: int
-    overruns: int
-    jitter_p999_us: float
-    calc_p999_us: float
-    calc_max_us: float
-    log_records_dropped: int
-    elapsed_s: float
-    faults: int = 0  # component failures a policy contained (on_error deactivate/restart)
-    # who may change the runner: "lock L", "allowed modules ..." (empty: anyone, anything)
-    access: str = ""
-    # how often the loop started: a load or unload stops it and starts it again on its
-    # time grid; a refused request must not (docs/security.md)
-    starts: int = 0
-
-
-def access_of(settings: RunnerSettings, locked: bool | None = None) -> str:
-    """Who may change a runner, in a line: its lock (and whether it applies yet) and
-    its allowed modules; empty when it is open to any request."""
-    parts = []
-    if settings.lock != "none":
-        when = "" if locked is None else (" (applies)" if locked else
-                                          " (applies once the loop runs)")
-        parts.append(f"lock {settings.lock}{when}")
-    if settings.allowed_modules:
-        parts.append("allowed modules " + " ".join(settings.allowed_modules))
-    return "; ".join(parts)
 
 
 class WorkerRunner:
@@ -254,7 +218,7 @@ class WorkerRunner:
                 [sys.executable, "-m", WORKER_MODULE, str(theirs.fileno()), str(os.getpid())],
                 pass_fds=tuple(fd for fd in (theirs.fileno(), bell, clock_bell) if fd >= 0),
                 stdin=subprocess.DEVNULL,
-                env=_worker_env(),
+                env=worker_env(),
             )
         finally:
             theirs.close()
@@ -369,7 +333,7 @@ class WorkerRunner:
             try:
                 tell(name, value)
             except Exception as exc:  # the loop goes on; say why the middleware missed it
-                self.log_sink(_note(30, f"parameter {name} was set to {value!r} in the "
+                self.log_sink(note(30, f"parameter {name} was set to {value!r} in the "
                                         f"runner but not in the middleware: {exc}"))
 
     def _hung(self, component: str, hook: str) -> WorkerDied:
@@ -611,7 +575,7 @@ class WorkerRunner:
         for worker in self._lanes.values():
             more = worker.introspection
             data["components"] = list(data.get("components", [])) + list(more["components"])
-            data["connections"] = _merge_connections(
+            data["connections"] = merge_connections(
                 data.get("connections", []), more.get("connections", [])
             )
         with self._update_lock:
@@ -895,12 +859,12 @@ class WorkerRunner:
 
     def _open_run(
         self, prepared: dict[str, Any], record: RecordSink | None, ros_offset: int
-    ) -> _Run:
+    ) -> Run:
         """A run's segments: timing, the mapped ports' channels, the recording's rings."""
         schedule: list[str] = prepared["schedule"]
         ports: list[MappedPort] = prepared["ports"]
         recorded: list[RecordedTopic] = prepared["recorded"]
-        run = _Run(schedule, ports, recorded, record, ros_offset)
+        run = Run(schedule, ports, recorded, record, ros_offset)
         if record is not None and recorded:
             record.begin(recorded)
             run.rec_seg = self._segment(recording_segment_size(recorded), "rtcf-record")
@@ -915,13 +879,13 @@ class WorkerRunner:
         # wall minus monotonic, once per run, for the loop and the recording alike: every
         # recorded channel, the timing rows too, is stamped with the same offset
         if record is not None and hasattr(record, "timing_rows") and self.lane == MAIN_LANE:
-            run.aggregate.on_rows = _with_timing_rows(run.aggregate.on_rows, record, ros_offset)
+            run.aggregate.on_rows = with_timing_rows(run.aggregate.on_rows, record, ros_offset)
         self._timing = (run.ring, schedule, run.aggregate)
         self._events.pop("started", None)
         return run
 
     def _call_run(
-        self, run: _Run, iterations: int | None, trace: str | None, lane_run: int | None
+        self, run: Run, iterations: int | None, trace: str | None, lane_run: int | None
     ) -> dict[str, Any]:
         offset = None if self.simulated or self.settings.use_sim_time else run.ros_offset
         done: dict[str, Any] = self.call(
@@ -931,7 +895,7 @@ class WorkerRunner:
         run.done = done
         return done
 
-    def _close_run(self, run: _Run) -> None:
+    def _close_run(self, run: Run) -> None:
         """Drain what is left and let go of the run's segments (the bridge is closed)."""
         self._timing = None
         self._recording = None
@@ -948,7 +912,7 @@ class WorkerRunner:
         run.arrived = {t: c.version for t, c in run.channels.items() if isinstance(c, Mailbox)}
         for topic, channel in run.channels.items():
             if isinstance(channel, Ring) and channel.dropped:
-                self.log_sink(_note(30, f"{channel.dropped} messages on {topic} were dropped: "
+                self.log_sink(note(30, f"{channel.dropped} messages on {topic} were dropped: "
                                         "the channel to the middleware was full"))
             channel.close()
         if run.port_seg is not None:
@@ -959,22 +923,22 @@ class WorkerRunner:
         if record is not None:
             record.end_run({}, done.get("recording", {}))
         for topic, n in done.get("oversize", {}).items():
-            self.log_sink(_note(30, f"{n} messages on {topic} were larger than a channel record "
+            self.log_sink(note(30, f"{n} messages on {topic} were larger than a channel record "
                                     "and were not published"))
         for topic, n in sorted(done.get("inputs", {}).items()):
             arrived, superseded = run.arrived.get(topic, 0), n["superseded"]
             if superseded:  # the meaning of a mapped input (the latest value), said once
-                self.log_sink(_note(20, f"{superseded} of {arrived} messages on {topic} were "
+                self.log_sink(note(20, f"{superseded} of {arrived} messages on {topic} were "
                                         "replaced by a newer one before an iteration read "
                                         "them (a mapped input holds the latest value)"))
 
-    def _result(self, run: _Run, done: dict[str, Any]) -> RunResult:
+    def _result(self, run: Run, done: dict[str, Any]) -> RunResult:
         aggregate = run.aggregate
         timing = aggregate.summary(done["rows"], done["overruns"])
         return RunResult(
             iterations=done["iterations"],
             stopped_by=done["stopped_by"],
-            timing=timing if not done["simulated"] else _counts_only(timing),
+            timing=timing if not done["simulated"] else counts_only(timing),
             order=done["order"],
             log_records_dropped=self.log_records_dropped,
             simulated=done["simulated"],
@@ -1012,7 +976,7 @@ class WorkerRunner:
         self._events["started_at"] = time.monotonic()
         realtime = self._events["started"]
         if self.settings.cpu_affinity_mask:
-            _keep_off_cpus(realtime.get("cpu_affinity") or [])
+            keep_off_cpus(realtime.get("cpu_affinity") or [])
         if self.on_started is not None:
             self.on_started(realtime)
 
@@ -1135,7 +1099,7 @@ class WorkerRunner:
         self.lane_placement[lane] = f"pid {worker.pid}, {how}, priority {priority}"
         said = (f"lane {lane!r} runs in a worker process of its own (pid {worker.pid}) on "
                 f"{how}, priority {priority}")
-        self.log_sink(_note(20 if self.say_lanes else 10, said))
+        self.log_sink(note(20 if self.say_lanes else 10, said))
         return worker
 
     def _running_lanes(self) -> dict[str, WorkerRunner]:
@@ -1196,11 +1160,11 @@ class WorkerRunner:
         self._lane_runs += 1
         lane_run = self._lane_runs
         workers = self._running_lanes()
-        sink = _LockedSink(record) if record is not None else None
+        sink = LockedSink(record) if record is not None else None
         prepared = {name: w._prepare(sink) for name, w in workers.items()}
-        _share_out(prepared)
+        share_out(prepared)
         ros_offset = self._ros_offset()
-        runs: dict[str, _Run] = {}
+        runs: dict[str, Run] = {}
         failures: list[tuple[float, BaseException]] = []
         results: dict[str, RunResult] = {}
         opened = False
@@ -1215,10 +1179,10 @@ class WorkerRunner:
                 if name == MAIN_LANE:  # iteration_info and a recording's: the loop's rows
                     span.on_rows, runs[name].aggregate.on_rows = runs[name].aggregate.on_rows, None
                 if name in lock_step:
-                    runs[name].aggregate.on_rows = _chain_rows(
+                    runs[name].aggregate.on_rows = chain_rows(
                         runs[name].aggregate.on_rows, span.add
                     )
-            ports, channels = _bridged_channels(runs)
+            ports, channels = bridged_channels(runs)
             if self.bridge is not None and ports:
                 self.bridge.open(ports, channels)
                 opened = True
@@ -1281,118 +1245,15 @@ class WorkerRunner:
             main.safe_stops += result.safe_stops
             if result.stopped_by == "abort" and main.stopped_by != "abort":
                 main.stopped_by = "abort"
-        main.aggregate, main.timing = _whole_loop(main, results, span, lock_step)
+        main.aggregate, main.timing = whole_loop(main, results, span, lock_step)
         for name, info in main.lanes.items():
             for label, counts in info.get("handovers", {}).items():
                 said = ", ".join(f"{n} {k.replace('_', ' ')}" for k, n in counts.items())
-                self.log_sink(_note(30, f"lane {name!r}: {label}: {said}"))
+                self.log_sink(note(30, f"lane {name!r}: {label}: {said}"))
             if info.get("missed"):
-                self.log_sink(_note(30, f"lane {name!r}: {info['missed']} releases skipped "
+                self.log_sink(note(30, f"lane {name!r}: {info['missed']} releases skipped "
                                         "after overrunning its window (LET overruns)"))
         return main
-
-
-def _share_out(prepared: dict[str, dict[str, Any]]) -> None:
-    """Each recorded topic in one lane only (a mapped input several lanes read is fed
-    in each); a mapped output written in several lanes is a clear error."""
-    published: dict[str, str] = {}
-    recorded: set[str] = set()
-    for lane, p in prepared.items():
-        for port in p["ports"]:
-            if port.direction != "output":
-                continue
-            if port.topic in published:
-                raise ConfigurationError(
-                    f"topic {port.topic!r} is mapped to the middleware and written in lanes "
-                    f"{published[port.topic]!r} and {lane!r}: one lane must own a published "
-                    "topic; put its writers (a component and its fallback) in one lane"
-                )
-            published[port.topic] = lane
-        mine = [t for t in p["recorded"] if t.topic not in recorded]
-        recorded.update(t.topic for t in mine)
-        p["recorded"] = relaid(mine)
-
-
-def _bridged_channels(
-    runs: dict[str, _Run],
-) -> tuple[list[MappedPort], dict[str, Ring | Mailbox | MailboxFanOut]]:
-    """Every lane's mapped ports as one bridge sees them: an input several lanes read
-    is one subscription that feeds each lane's mailbox."""
-    ports: dict[str, MappedPort] = {}
-    boxes: dict[str, list[Mailbox]] = {}
-    channels: dict[str, Ring | Mailbox | MailboxFanOut] = {}
-    for run in runs.values():
-        for port in run.ports:
-            channel = run.channels[port.topic]
-            if port.direction == "input":
-                assert isinstance(channel, Mailbox)
-                boxes.setdefault(port.topic, []).append(channel)
-            else:
-                channels[port.topic] = channel
-            ports.setdefault(port.topic, port)
-    for topic, found in boxes.items():
-        channels[topic] = found[0] if len(found) == 1 else MailboxFanOut(found)
-    return list(ports.values()), channels
-
-
-def _merge_connections(
-    first: list[dict[str, Any]], second: list[dict[str, Any]]
-) -> list[dict[str, Any]]:
-    """Two lanes' introspected connections as one list, by topic."""
-    out = {c["topic"]: dict(c, publishers=list(c["publishers"]),
-                            subscribers=list(c["subscribers"])) for c in first}
-    for c in second:
-        mine = out.setdefault(c["topic"], dict(c, publishers=[], subscribers=[]))
-        mine["publishers"] += c["publishers"]
-        mine["subscribers"] += c["subscribers"]
-    return [out[t] for t in sorted(out)]
-
-
-@dataclass
-class _Run:
-    """One run's channels on the supervisor's side, from prepare to close."""
-
-    schedule: list[str]
-    ports: list[MappedPort]
-    recorded: list[RecordedTopic]
-    record: RecordSink | None
-    ros_offset: int
-    seg: Segment | None = None
-    ring: Ring | None = None
-    aggregate: TimingAggregate = dataclasses.field(default_factory=TimingAggregate)
-    port_seg: Segment | None = None
-    channels: dict[str, Ring | Mailbox] = dataclasses.field(default_factory=dict)
-    rec_seg: Segment | None = None
-    drain: RecordingDrain | None = None
-    done: dict[str, Any] | None = None
-    arrived: dict[str, int] = dataclasses.field(default_factory=dict)  # per mapped input
-
-
-class _LockedSink:
-    """A record sink that the lanes' threads share: one writer at a time."""
-
-    def __init__(self, sink: RecordSink) -> None:
-        self._sink = sink
-        self._lock = threading.Lock()
-        self.pattern = sink.pattern
-        if hasattr(sink, "timing_rows"):
-            self.timing_rows = self._timing_rows
-
-    def begin(self, topics: list[RecordedTopic]) -> None:
-        with self._lock:
-            self._sink.begin(topics)
-
-    def write(self, record: Any) -> None:
-        with self._lock:
-            self._sink.write(record)
-
-    def end_run(self, dropped: dict[str, int], counts: dict[str, dict[str, int]]) -> None:
-        with self._lock:
-            self._sink.end_run(dropped, counts)
-
-    def _timing_rows(self, rows: Any, offset_ns: int) -> None:
-        with self._lock:
-            self._sink.timing_rows(rows, offset_ns)  # type: ignore[attr-defined]
 
 
 class _PendingTransition:
@@ -1446,71 +1307,3 @@ def _both(
         second(rec)
 
     return sink
-
-
-def _note(level: int, text: str) -> LogRecord:
-    return LogRecord(level, "rt_runner", text)
-
-
-def _chain_rows(
-    previous: Callable[[Any], None] | None, then: Callable[[Any], None]
-) -> Callable[[Any], None]:
-    def on_rows(rows: Any) -> None:
-        if previous is not None:
-            previous(rows)
-        then(rows)
-
-    return on_rows
-
-
-def _whole_loop(
-    main: RunResult, results: dict[str, RunResult], span: LoopSpan, lock_step: list[str]
-) -> tuple[TimingAggregate | None, TimingSummary]:
-    """The run's top-level timing with lanes: the loop as a whole (from the first
-    lock-step lane's start to the last one's end), every lane's components (the
-    main lane's handovers too: how long it waited for the others)."""
-    if main.aggregate is None or main.simulated:
-        return main.aggregate, main.timing
-    whole = span.snapshot(main.aggregate)
-    for name, result in results.items():
-        if name != MAIN_LANE and result.aggregate is not None:
-            for label, hist in result.aggregate.components.items():
-                if not label.startswith("@"):
-                    whole.components.setdefault(label, hist)
-    if len(lock_step) == 1:  # the other lanes are on LET: the loop is the main lane
-        whole.phases = main.aggregate.phases
-    return whole, whole.summary(main.timing.iterations, span.overruns)
-
-
-def _with_timing_rows(
-    previous: Callable[[Any], None] | None, record: Any, offset_ns: int
-) -> Callable[[Any], None]:
-    """The timing rows to the recording (iteration_info) as well as where they went."""
-    return _chain_rows(previous, lambda rows: record.timing_rows(rows, offset_ns))
-
-
-def _counts_only(timing: TimingSummary) -> TimingSummary:
-    """On a simulated clock, the measured times mean nothing: keep only the counts."""
-    return TimingSummary(iterations=timing.iterations, samples=0, overruns=timing.overruns)
-
-
-def _worker_env() -> dict[str, str]:
-    env = dict(os.environ)
-    # the worker must find this very rtcf even when it is not installed
-    src = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
-    env["PYTHONPATH"] = os.pathsep.join(p for p in (src, env.get("PYTHONPATH", "")) if p)
-    # a component that imports numpy must not start BLAS worker threads beside the loop
-    for key in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
-        env.setdefault(key, "1")
-    return env
-
-
-def _keep_off_cpus(worker_cpus: list[int]) -> None:
-    """Move the supervisor off the worker's CPUs when that leaves it somewhere to run."""
-    try:
-        mine = os.sched_getaffinity(0)
-        rest = mine - set(worker_cpus)
-        if worker_cpus and rest and rest != mine:
-            os.sched_setaffinity(0, rest)
-    except OSError:
-        pass
