@@ -7,7 +7,8 @@ import pytest
 import rtcf_examples
 from rtcf import ComponentError, ComponentSpec, RtcfError, RunnerSettings
 from rtcf._core._log import LogRecord
-from rtcf._runtime._supervisor import WorkerDied, WorkerRunner
+from rtcf._runtime._supervisor import WorkerRunner
+from rtcf._runtime._worker_process import WorkerDied
 
 from .._proc import rtcf_shm_names
 

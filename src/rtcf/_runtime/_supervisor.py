@@ -15,14 +15,11 @@ from __future__ import annotations
 import dataclasses
 import itertools
 import os
-import signal
-import socket
 import subprocess
 import sys
 import threading
 import time
 from collections.abc import Callable, Mapping
-from multiprocessing.connection import Connection
 from typing import Any, Protocol
 
 from .._core._errors import RtcfError
@@ -40,14 +37,13 @@ from .._core._lifecycle import (
     refused,
 )
 from .._core._loader import absent_component_class
-from .._core._log import LOG_RECORD_SIZE, LogLevel, LogRecord, PythonLoggingSink, drain_channel
+from .._core._log import LogLevel, LogRecord, PythonLoggingSink, drain_channel
 from .._core._params import ParameterStore
 from .._core._rings import Mailbox, Ring
 from .._core._runner import ComponentSpec, RunResult
 from .._core._settings import RunnerSettings, lane_placement
 from .._core._timing import (
     CONSUME_BATCH,
-    FIXED_COLUMNS,
     LoopSpan,
     TimingAggregate,
     ring_capacity,
@@ -63,7 +59,7 @@ from .._core._tunables import (
     encode_update,
 )
 from ._admission import access_of
-from ._doorbell import ClockFeed, Doorbell, RungMailbox
+from ._doorbell import ClockFeed, Doorbell
 from ._heap import fill_numpy_cache
 from ._lane_workers import LockedSink, bridged_channels, merge_connections, share_out, whole_loop
 from ._lanes import LaneLayout, abort_all, init_words, layout, reset_stop
@@ -73,17 +69,13 @@ from ._recording import RecordedTopic, RecordingDrain, RecordSink
 from ._recording import segment_size as recording_segment_size
 from ._request_fields import RequestRefused
 from ._runs import Run, chain_rows, counts_only, note, with_timing_rows
-from ._shm import Segment, outgoing, send_segments
+from ._shm import Segment
 from ._worker import (
-    CLOCK_MAILBOX_OFFSET,
     CTL_FAULTS,
-    CTL_HEARTBEAT,
-    CTL_RUNNING,
     CTL_STOP,
-    WORKER_MODULE,
     error_from_dict,
 )
-from ._worker_process import POLL_S, WorkerDied, keep_off_cpus, worker_env
+from ._worker_process import POLL_S, WorkerProcess, keep_off_cpus
 
 PUMP_ROWS = 8 * CONSUME_BATCH  # timing rows aggregated per pump, at most
 
@@ -116,19 +108,14 @@ class WorkerRunner:
         self.on_status = on_status
         self.on_started = on_started
         self.bridge = bridge
-        self.process: subprocess.Popen[bytes] | None = None
-        self.conn: Connection | None = None
-        self._segments: list[Segment] = []
-        self._control: Segment | None = None
-        self._ctl: memoryview | None = None
-        self._log_ring: Ring | None = None
-        self._clock_box: Mailbox | None = None
-        self._clock_bell: Doorbell | None = None  # rung with each /clock message
+        self._process = WorkerProcess(
+            settings, name, pump=self.pump, on_poll=self._on_poll, on_event=self._on_event,
+            kill=self.kill, label=self._lane_label,
+        )
         self._timing: tuple[Ring, list[str], TimingAggregate] | None = None
         self._recording: tuple[RecordingDrain, RecordSink] | None = None
-        self._events: dict[str, Any] = {}
-        self._hook: tuple[str, str, float] | None = None  # the hook the worker runs now
-        self.exit_reported = False
+        self._started_at: float | None = None  # when the loop last started
+        self._last_status = self._last_diagnostics = 0.0  # of the command waited for
         # loaded components as tools see them (type, ports, parameters, tunables)
         self.components: dict[str, dict[str, Any]] = {}
         # what the introspection commands show; refreshed by the main thread after
@@ -174,60 +161,38 @@ class WorkerRunner:
         fill_numpy_cache()  # its growth would read as a leak in a long run
         if self.bridge is not None:
             self.bridge.configure(self.settings, self)
-        control = self._segment(CLOCK_MAILBOX_OFFSET + Mailbox.nbytes(8), "rtcf-control")
-        self._control = control
-        self._ctl = control.buf[:CLOCK_MAILBOX_OFFSET].cast("q")
+        process = self._process
+        process.open_control()
         if self.settings.use_sim_time:
             if self.bridge is None and self.clock_feed is None:
                 raise RtcfError(
                     f"runner {self.name!r}: use_sim_time needs a middleware that publishes "
                     "/clock; run with --middleware ros2"
                 )
-            clock_view = control.buf[CLOCK_MAILBOX_OFFSET:]
-            self._clock_box = Mailbox.create(clock_view, 8)
-            clock_view.release()
-            self._clock_bell = Doorbell.create()
-            mine = RungMailbox(self._clock_box, self._clock_bell)
+            mine = process.open_clock()
             if self.clock_feed is None:  # the main lane: the bridge's /clock feeds it
                 assert self.bridge is not None
                 self.clock_feed = ClockFeed()
                 self.bridge.follow_clock(self.clock_feed)
             self.clock_feed.add(mine)
-        log = self._segment(Ring.nbytes(self.log_capacity, LOG_RECORD_SIZE), "rtcf-log")
-        self._log_ring = Ring.create(log.buf, self.log_capacity, LOG_RECORD_SIZE)
+        process.open_log(self.log_capacity)
         # one segment, two rings: updates to the worker, lifecycle outcomes back
         first = Ring.nbytes(UPDATE_RING_RECORDS, UPDATE_RECORD_SIZE)
-        updates = self._segment(
+        updates = process.segment(
             first + Ring.nbytes(OUTCOME_RING_RECORDS, OUTCOME_RECORD_SIZE), "rtcf-updates"
         )
         self._update_ring = Ring.create(updates.buf, UPDATE_RING_RECORDS, UPDATE_RECORD_SIZE)
         view = updates.buf[first:]
         self._outcome_ring = Ring.create(view, OUTCOME_RING_RECORDS, OUTCOME_RECORD_SIZE)
         view.release()
-        ours, theirs = socket.socketpair(socket.AF_UNIX, socket.SOCK_STREAM)
-        # blocking whatever socket.setdefaulttimeout() says: rospy sets a process-wide
-        # timeout, which makes new sockets non-blocking underneath, and the worker would
-        # read EAGAIN on its control channel as the end of it
-        ours.setblocking(True)
-        theirs.setblocking(True)
         bell_of = self.bridge.doorbell if self.bridge is not None else self.outputs_bell
         bell = bell_of.fd if bell_of is not None else -1
-        clock_bell = self._clock_bell.fd if self._clock_bell is not None else -1
-        try:
-            self.process = subprocess.Popen(
-                [sys.executable, "-m", WORKER_MODULE, str(theirs.fileno()), str(os.getpid())],
-                pass_fds=tuple(fd for fd in (theirs.fileno(), bell, clock_bell) if fd >= 0),
-                stdin=subprocess.DEVNULL,
-                env=worker_env(),
-            )
-        finally:
-            theirs.close()
-        self.conn = Connection(ours.detach())
+        process.spawn(bell)
         self.call(
             "hello",
             list(sys.path),
-            control,
-            log,
+            process.control,
+            process.log,
             updates,
             self.settings,
             self.parameters.as_dict(),
@@ -235,19 +200,23 @@ class WorkerRunner:
             self.simulated,
             self.log_level,
             bell,
-            clock_bell,
+            process.clock_bell_fd,
         )
         self.refresh_introspection()
         return self
 
-    def _segment(self, size: int, name: str) -> Segment:
-        seg = Segment.create(size, name)
-        self._segments.append(seg)
-        return seg
+    @property
+    def process(self) -> subprocess.Popen[bytes] | None:
+        return self._process.process
+
+    @property
+    def exit_reported(self) -> bool:
+        """Whether a death or a hang was said already (as a WorkerDied)."""
+        return self._process.exit_reported
 
     @property
     def pid(self) -> int | None:
-        return self.process.pid if self.process else None
+        return self._process.pid
 
     def __enter__(self) -> WorkerRunner:
         return self.start() if self.process is None else self
@@ -258,72 +227,27 @@ class WorkerRunner:
     # -- the control channel -----------------------------------------------------
     def call(self, command: str, *args: Any) -> Any:
         """Send a command and wait for its answer, draining the rings meanwhile."""
-        conn = self._conn()
-        args, segments = outgoing(args)
-        try:
-            conn.send((command, args))
-            send_segments(conn, segments)
-        except (BrokenPipeError, ConnectionResetError, OSError):
-            raise self._died(f"while sending {command!r}") from None
-        for seg in segments:  # the worker's copy is in flight or mapped: ours can go
-            seg.close_fd()
-        last_status = last_diagnostics = time.monotonic()
-        self._hook = None
-        while True:
-            try:
-                ready = conn.poll(POLL_S)
-            except (EOFError, OSError):
-                ready = True
-            if self._ctl is not None:
-                self._ctl[CTL_HEARTBEAT] += 1  # a sign of life for the worker's watch
-            self.pump()
-            if self._hook is not None and not ready:
-                component, hook, since = self._hook
-                if time.monotonic() - since > self.settings.hook_timeout:
-                    raise self._hung(component, hook)
-            if self.on_status is not None and self._timing is not None:
-                now = time.monotonic()
-                if now - last_status >= STATUS_EVERY_S:
-                    last_status = now
-                    self.on_status(self.live_status())
-            if self.bridge is not None and self._timing is not None:
-                now = time.monotonic()
-                if now - last_diagnostics >= DIAGNOSTICS_EVERY_S:
-                    last_diagnostics = now
-                    self.bridge.diagnostics(
-                        self.name, self.live_status(), self._live_aggregate()
-                    )
-            if not ready:
-                if self.process is not None and self.process.poll() is not None:
-                    raise self._died(f"during {command!r}")
-                continue
-            try:
-                message = conn.recv()
-            except (EOFError, OSError):
-                raise self._died(f"during {command!r}") from None
-            kind = message[0]
-            if kind == "event":
-                self._events[message[1]] = message[2]
-                if message[1] == "hook":
-                    component, hook = message[2]
-                    self._hook = (component, hook, time.monotonic())
-                    continue
-                if message[1] == "parameter_set":
-                    self._parameter_set(*message[2])
-                    continue
-                if message[1] == "started":
-                    self._hook = None  # the loop runs: its time is the watchdogs' business
-                    self._on_started()
-                continue
-            self.pump()
-            if kind == "error":
-                raise error_from_dict(message[1])
-            return message[1]
+        self._last_status = self._last_diagnostics = time.monotonic()
+        return self._process.call(command, *args)
 
-    def _conn(self) -> Connection:
-        if self.conn is None:
-            raise RtcfError("the worker process is not running; call start() first")
-        return self.conn
+    def _on_poll(self) -> None:
+        """Every polling interval of a command: the status line and diagnostics."""
+        if self.on_status is not None and self._timing is not None:
+            now = time.monotonic()
+            if now - self._last_status >= STATUS_EVERY_S:
+                self._last_status = now
+                self.on_status(self.live_status())
+        if self.bridge is not None and self._timing is not None:
+            now = time.monotonic()
+            if now - self._last_diagnostics >= DIAGNOSTICS_EVERY_S:
+                self._last_diagnostics = now
+                self.bridge.diagnostics(self.name, self.live_status(), self._live_aggregate())
+
+    def _on_event(self, event: str, payload: Any) -> None:
+        if event == "parameter_set":
+            self._parameter_set(*payload)
+        elif event == "started":
+            self._on_started(payload)
 
     def _parameter_set(self, name: str, value: Any) -> None:
         """A component set a parameter: keep it, and tell the middleware's parameters."""
@@ -334,75 +258,23 @@ class WorkerRunner:
                 tell(name, value)
             except Exception as exc:  # the loop goes on; say why the middleware missed it
                 self.log_sink(note(30, f"parameter {name} was set to {value!r} in the "
-                                        f"runner but not in the middleware: {exc}"))
-
-    def _hung(self, component: str, hook: str) -> WorkerDied:
-        """A hook did not return within hook_timeout: kill the worker and say which."""
-        limit = self.settings.hook_timeout
-        self.kill()
-        self.pump()
-        self.exit_reported = True
-        return WorkerDied(
-            f"runner {self.name!r}: component {component!r}: {hook}() did not return within "
-            f"{limit:g} s (hook_timeout); the worker process (pid {self.pid}) was killed, so "
-            "the hooks after it did not run; raise hook_timeout if it needs longer"
-        )
+                                       f"runner but not in the middleware: {exc}"))
 
     def kill(self) -> None:
         """Kill the worker at once (SIGKILL): no hook runs any more."""
         for worker in self._lanes.values():
             worker.kill()
-        proc = self.process
-        if proc is not None and proc.poll() is None:
-            proc.kill()
-            try:
-                proc.wait(timeout=5.0)
-            except subprocess.TimeoutExpired:
-                pass
+        self._process.kill()
 
-    def _running_now(self) -> str:
-        """What the worker was doing, from the running word and the last hook event."""
-        if self._hook is not None:
-            return f" while {self._hook[0]}'s {self._hook[1]}() was running"
-        if self._ctl is None or self._timing is None:
-            return ""
-        column = self._ctl[CTL_RUNNING]
-        schedule = self._timing[1]
-        if FIXED_COLUMNS <= column < FIXED_COLUMNS + len(schedule):
-            return f" while {schedule[column - FIXED_COLUMNS]}'s update() was running"
-        return ""
-
-    def _died(self, when: str) -> WorkerDied:
-        proc = self.process
-        code = None
-        if proc is not None:
-            try:
-                code = proc.wait(timeout=2.0)
-            except subprocess.TimeoutExpired:
-                code = None
-        if code is not None and code < 0:
-            how = f"was killed by {signal.Signals(-code).name}"
-        elif code is not None:
-            how = f"exited with status {code}"
-        else:
-            how = "stopped answering"
-        self.pump()
-        where = ""
-        if self._timing is not None:
-            where = f" after iteration {self._timing[2].last_iteration}"
-        where += self._running_now()
-        self.exit_reported = True
-        lane = f"lane {self.lane!r}: " if self.lane != MAIN_LANE or self._lanes else ""
-        return WorkerDied(
-            f"runner {self.name!r}: {lane}the worker process (pid {self.pid}) {how} {when}{where}; "
-            "the components' stop() and cleanup() did not run"
-        )
+    def _lane_label(self) -> str:
+        """Which lane a worker's death message names: none when no lanes run."""
+        return f"lane {self.lane!r}: " if self.lane != MAIN_LANE or self._lanes else ""
 
     # -- draining ------------------------------------------------------------------
     def pump(self) -> None:
         """Drain log records and timing rows (non-real-time work, called often)."""
-        if self._log_ring is not None:
-            drain_channel(self._log_ring, self.log_sink)
+        if self._process.log_ring is not None:
+            drain_channel(self._process.log_ring, self.log_sink)
         if self._timing is not None:
             ring, names, aggregate = self._timing
             # a bounded share each time: a supervisor that falls behind its rows must
@@ -419,7 +291,8 @@ class WorkerRunner:
 
     @property
     def log_records_dropped(self) -> int:
-        return self._log_ring.dropped if self._log_ring is not None else 0
+        ring = self._process.log_ring
+        return ring.dropped if ring is not None else 0
 
     def _live_aggregate(self) -> TimingAggregate:
         """The run's timing so far: with lanes the loop's as a whole."""
@@ -429,7 +302,7 @@ class WorkerRunner:
 
     def live_status(self) -> LiveStatus:
         aggregate = self._live_aggregate()
-        started = self._events.get("started_at", time.monotonic())
+        started = self._started_at if self._started_at is not None else time.monotonic()
         return LiveStatus(
             iterations=aggregate.rows,
             overruns=aggregate.overruns,
@@ -438,7 +311,7 @@ class WorkerRunner:
             calc_max_us=aggregate.calc.quantile(1.0) / 1e3,
             log_records_dropped=self.log_records_dropped,
             elapsed_s=time.monotonic() - started,
-            faults=self._ctl[CTL_FAULTS] if self._ctl is not None else 0,
+            faults=self._process.ctl[CTL_FAULTS] if self._process.ctl is not None else 0,
             access=access_of(self.settings, self.locked),
             starts=self.loop_starts,
         )
@@ -767,9 +640,9 @@ class WorkerRunner:
 
         ``abort``: not a normal stop (a signal): the components' safe_stop hooks run.
         """
-        if self._ctl is not None:
-            if abort or self._ctl[CTL_STOP] != ABORT:
-                self._ctl[CTL_STOP] = ABORT if abort else STOP
+        if self._process.ctl is not None:
+            if abort or self._process.ctl[CTL_STOP] != ABORT:
+                self._process.ctl[CTL_STOP] = ABORT if abort else STOP
             self._wake_clock()
         # a normal stop reaches the other lanes through the main lane, unless they
         # sleep until /clock moves (which may have stopped): then it wakes them too
@@ -779,8 +652,8 @@ class WorkerRunner:
 
     def request_control(self) -> None:
         """End the loop after the iteration so a request can be served (it resumes after)."""
-        if self._ctl is not None and self._ctl[CTL_STOP] not in (STOP, ABORT):
-            self._ctl[CTL_STOP] = CONTROL
+        if self._process.ctl is not None and self._process.ctl[CTL_STOP] not in (STOP, ABORT):
+            self._process.ctl[CTL_STOP] = CONTROL
             self._wake_clock()
         if self.settings.use_sim_time:  # lanes asleep until /clock moves
             for worker in self._lanes.values():
@@ -788,24 +661,24 @@ class WorkerRunner:
 
     def _wake_clock(self) -> None:
         """A loop waiting for /clock time sees the stop word at once."""
-        bell = self._clock_bell
+        bell = self._process.clock_bell
         if bell is not None and bell.fd >= 0:
             bell.ring()
 
     @property
     def stop_reason(self) -> int:
-        return self._ctl[CTL_STOP] if self._ctl is not None else 0
+        return self._process.ctl[CTL_STOP] if self._process.ctl is not None else 0
 
     def clear_stop(self) -> None:
         """Forget a stop request (the next run runs); a stop asked for earlier sticks."""
-        if self._ctl is not None:
-            self._ctl[CTL_STOP] = 0
+        if self._process.ctl is not None:
+            self._process.ctl[CTL_STOP] = 0
         for worker in self._lanes.values():
             worker.clear_stop()
 
     @property
     def stop_requested(self) -> bool:
-        return self._ctl is not None and self._ctl[CTL_STOP] != 0
+        return self._process.ctl is not None and self._process.ctl[CTL_STOP] != 0
 
     @property
     def bridged(self) -> bool:
@@ -867,11 +740,13 @@ class WorkerRunner:
         run = Run(schedule, ports, recorded, record, ros_offset)
         if record is not None and recorded:
             record.begin(recorded)
-            run.rec_seg = self._segment(recording_segment_size(recorded), "rtcf-record")
+            run.rec_seg = self._process.segment(recording_segment_size(recorded), "rtcf-record")
             run.drain = RecordingDrain(run.rec_seg.buf, recorded)
             self._recording = (run.drain, record)
         capacity = ring_capacity(len(schedule))
-        run.seg = self._segment(Ring.nbytes(capacity, row_size(len(schedule))), "rtcf-timing")
+        run.seg = self._process.segment(
+            Ring.nbytes(capacity, row_size(len(schedule))), "rtcf-timing"
+        )
         run.ring = Ring.create(run.seg.buf, capacity, row_size(len(schedule)))
         run.port_seg, run.channels = self._port_channels(ports)
         if self.bridge is not None and self.settings.iteration_info:
@@ -881,7 +756,7 @@ class WorkerRunner:
         if record is not None and hasattr(record, "timing_rows") and self.lane == MAIN_LANE:
             run.aggregate.on_rows = with_timing_rows(run.aggregate.on_rows, record, ros_offset)
         self._timing = (run.ring, schedule, run.aggregate)
-        self._events.pop("started", None)
+        self._process.running = (schedule, run.aggregate)
         return run
 
     def _call_run(
@@ -898,17 +773,18 @@ class WorkerRunner:
     def _close_run(self, run: Run) -> None:
         """Drain what is left and let go of the run's segments (the bridge is closed)."""
         self._timing = None
+        self._process.running = None
         self._recording = None
         record = run.record
         if run.drain is not None and record is not None and run.rec_seg is not None:
             run.drain.drain(record.write)
             record.end_run(run.drain.dropped(), {})
             run.drain.close()
-            self._close_segment(run.rec_seg)
+            self._process.close_segment(run.rec_seg)
         if run.ring is not None and run.seg is not None:
             run.aggregate.finish(run.ring, run.schedule)
             run.ring.close()
-            self._close_segment(run.seg)
+            self._process.close_segment(run.seg)
         run.arrived = {t: c.version for t, c in run.channels.items() if isinstance(c, Mailbox)}
         for topic, channel in run.channels.items():
             if isinstance(channel, Ring) and channel.dropped:
@@ -916,7 +792,7 @@ class WorkerRunner:
                                         "the channel to the middleware was full"))
             channel.close()
         if run.port_seg is not None:
-            self._close_segment(run.port_seg)
+            self._process.close_segment(run.port_seg)
         done = run.done
         if done is None:
             return
@@ -958,7 +834,7 @@ class WorkerRunner:
         """One segment holding a ring per mapped output and a mailbox per mapped input."""
         if not ports:
             return None, {}
-        seg = self._segment(segment_size(ports), "rtcf-ports")
+        seg = self._process.segment(segment_size(ports), "rtcf-ports")
         channels: dict[str, Ring | Mailbox] = {}
         for p in ports:
             view = seg.buf[p.offset : p.offset + p.nbytes]
@@ -969,12 +845,11 @@ class WorkerRunner:
             view.release()
         return seg, channels
 
-    def _on_started(self) -> None:
+    def _on_started(self, realtime: dict[str, Any]) -> None:
         self.loop_starts += 1
         if self.lane == MAIN_LANE and self.settings.lock != "none":
             self.locked = True
-        self._events["started_at"] = time.monotonic()
-        realtime = self._events["started"]
+        self._started_at = time.monotonic()
         if self.settings.cpu_affinity_mask:
             keep_off_cpus(realtime.get("cpu_affinity") or [])
         if self.on_started is not None:
@@ -988,11 +863,12 @@ class WorkerRunner:
         return errors + self._shutdown()
 
     def _shutdown(self) -> list[RtcfError]:
-        if self.conn is None or self.process is None or self.process.poll() is not None:
+        proc = self._process.process
+        if self._process.conn is None or proc is None or proc.poll() is not None:
             return []
         errors = [error_from_dict(d) for d in self.call("shutdown")]
         try:
-            self.process.wait(timeout=10.0)
+            proc.wait(timeout=10.0)
         except subprocess.TimeoutExpired:
             pass
         return errors
@@ -1007,29 +883,8 @@ class WorkerRunner:
         if self.bridge is not None:
             self.bridge.shutdown()
             self.bridge = None
-        proc = self.process
-        if self.conn is not None:
-            # end of file on its control channel: the worker cleans up its components
-            # and leaves (a loop still running is stopped first)
-            self.request_stop()
-            self.conn.close()
-            self.conn = None
-        if proc is not None and proc.poll() is None:
-            try:
-                proc.wait(timeout=5.0)
-            except subprocess.TimeoutExpired:
-                proc.terminate()
-                try:
-                    proc.wait(timeout=2.0)
-                except subprocess.TimeoutExpired:
-                    proc.kill()
-                    proc.wait()
-        if self._ctl is not None:
-            self._ctl.release()
-            self._ctl = None
-        if self._log_ring is not None:
-            self._log_ring.close()
-            self._log_ring = None
+        self._process.end(self.request_stop)
+        self._process.release_words()
         if self._update_ring is not None:
             with self._update_lock:
                 self._update_ring.close()
@@ -1039,18 +894,7 @@ class WorkerRunner:
             self._outcome_ring = None
         for number in list(self._pending):
             self._answer(number, refused(UNKNOWN, "the runner is shutting down"))
-        if self._clock_box is not None:
-            self._clock_box.close()
-            self._clock_box = None
-        if self._clock_bell is not None:
-            self._clock_bell.close()
-        for seg in list(self._segments):
-            self._close_segment(seg)
-
-    def _close_segment(self, seg: Segment) -> None:
-        seg.close()
-        self._segments.remove(seg)
-
+        self._process.release()
 
     # -- lanes ----------------------------------------------------------------------
     def _other_lane(self, component: str) -> str | None:
@@ -1136,8 +980,8 @@ class WorkerRunner:
         if new != self._lane_layout or self._lane_seg is None:
             if self._lane_seg is not None:
                 self._lane_seg.close()
-                self._segments.remove(self._lane_seg)
-            seg = self._lane_seg = self._segment(max(new.size, 4096), "rtcf-lanes")
+                self._process.segments.remove(self._lane_seg)
+            seg = self._lane_seg = self._process.segment(max(new.size, 4096), "rtcf-lanes")
             init_words(seg.buf, new)
             self._lane_layout = new
             for lane in new.lanes:

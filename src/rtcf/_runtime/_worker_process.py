@@ -13,8 +13,29 @@ interval and said as a :class:`WorkerDied`: which worker, how, and what it ran.
 from __future__ import annotations
 
 import os
+import signal
+import socket
+import subprocess
+import sys
+import time
+from collections.abc import Callable
+from multiprocessing.connection import Connection
+from typing import Any
 
 from .._core._errors import RtcfError
+from .._core._log import LOG_RECORD_SIZE
+from .._core._rings import Mailbox, Ring
+from .._core._settings import RunnerSettings
+from .._core._timing import FIXED_COLUMNS, TimingAggregate
+from ._doorbell import Doorbell, RungMailbox
+from ._shm import Segment, outgoing, send_segments
+from ._worker import (
+    CLOCK_MAILBOX_OFFSET,
+    CTL_HEARTBEAT,
+    CTL_RUNNING,
+    WORKER_MODULE,
+    error_from_dict,
+)
 
 POLL_S = 0.01  # how often the supervisor drains while it waits for the worker
 
@@ -44,3 +65,258 @@ def keep_off_cpus(worker_cpus: list[int]) -> None:
     except OSError:
         pass
 
+
+
+class WorkerProcess:
+    """One worker process and its control channel, seen from the supervisor.
+
+    What happens while a command waits is the runner's, told as callables: ``pump``
+    drains the rings (called every polling interval and after each answer),
+    ``on_poll`` runs every polling interval (the status line, diagnostics),
+    ``on_event`` hears the worker's events but its hooks ("started",
+    "parameter_set"), ``kill`` kills this worker and its siblings (a hung hook takes
+    the whole runner down), ``label`` says which lane, if lanes run.
+    """
+
+    def __init__(
+        self,
+        settings: RunnerSettings,
+        name: str,
+        *,
+        pump: Callable[[], None],
+        on_poll: Callable[[], None],
+        on_event: Callable[[str, Any], None],
+        kill: Callable[[], None],
+        label: Callable[[], str],
+    ) -> None:
+        self.settings = settings
+        self.name = name
+        self.pump = pump
+        self.on_poll = on_poll
+        self.on_event = on_event
+        self._kill_all = kill
+        self.label = label
+        self.process: subprocess.Popen[bytes] | None = None
+        self.conn: Connection | None = None
+        self.segments: list[Segment] = []
+        self.control: Segment | None = None
+        self.ctl: memoryview | None = None  # the control words (heartbeat, stop, ...)
+        self.clock_box: Mailbox | None = None
+        self.clock_bell: Doorbell | None = None  # rung with each /clock message
+        self.log: Segment | None = None
+        self.log_ring: Ring | None = None
+        # the run's schedule and timing while a loop runs: what a death message names
+        self.running: tuple[list[str], TimingAggregate] | None = None
+        self.hook: tuple[str, str, float] | None = None  # the hook the worker runs now
+        self.exit_reported = False
+
+    # -- start ------------------------------------------------------------------
+    def open_control(self) -> None:
+        """The control words, with room for /clock's mailbox after them."""
+        control = self.segment(CLOCK_MAILBOX_OFFSET + Mailbox.nbytes(8), "rtcf-control")
+        self.control = control
+        self.ctl = control.buf[:CLOCK_MAILBOX_OFFSET].cast("q")
+
+    def open_clock(self) -> RungMailbox:
+        """/clock's mailbox for this worker, and the doorbell rung with each message."""
+        assert self.control is not None
+        clock_view = self.control.buf[CLOCK_MAILBOX_OFFSET:]
+        self.clock_box = Mailbox.create(clock_view, 8)
+        clock_view.release()
+        self.clock_bell = Doorbell.create()
+        return RungMailbox(self.clock_box, self.clock_bell)
+
+    def open_log(self, capacity: int) -> None:
+        log = self.log = self.segment(Ring.nbytes(capacity, LOG_RECORD_SIZE), "rtcf-log")
+        self.log_ring = Ring.create(log.buf, capacity, LOG_RECORD_SIZE)
+
+    def spawn(self, bell: int) -> None:
+        """Start the worker: its end of the control channel, the bridge's doorbell
+        (``bell``, or -1) and /clock's are inherited file descriptors."""
+        ours, theirs = socket.socketpair(socket.AF_UNIX, socket.SOCK_STREAM)
+        # blocking whatever socket.setdefaulttimeout() says: rospy sets a process-wide
+        # timeout, which makes new sockets non-blocking underneath, and the worker would
+        # read EAGAIN on its control channel as the end of it
+        ours.setblocking(True)
+        theirs.setblocking(True)
+        clock_bell = self.clock_bell_fd
+        try:
+            self.process = subprocess.Popen(
+                [sys.executable, "-m", WORKER_MODULE, str(theirs.fileno()), str(os.getpid())],
+                pass_fds=tuple(fd for fd in (theirs.fileno(), bell, clock_bell) if fd >= 0),
+                stdin=subprocess.DEVNULL,
+                env=worker_env(),
+            )
+        finally:
+            theirs.close()
+        self.conn = Connection(ours.detach())
+
+    @property
+    def clock_bell_fd(self) -> int:
+        return self.clock_bell.fd if self.clock_bell is not None else -1
+
+    def segment(self, size: int, name: str) -> Segment:
+        seg = Segment.create(size, name)
+        self.segments.append(seg)
+        return seg
+
+    def close_segment(self, seg: Segment) -> None:
+        seg.close()
+        self.segments.remove(seg)
+
+    @property
+    def pid(self) -> int | None:
+        return self.process.pid if self.process else None
+
+    # -- the control channel -----------------------------------------------------
+    def call(self, command: str, *args: Any) -> Any:
+        """Send a command and wait for its answer, draining the rings meanwhile."""
+        conn = self._conn()
+        args, segments = outgoing(args)
+        try:
+            conn.send((command, args))
+            send_segments(conn, segments)
+        except (BrokenPipeError, ConnectionResetError, OSError):
+            raise self.died(f"while sending {command!r}") from None
+        for seg in segments:  # the worker's copy is in flight or mapped: ours can go
+            seg.close_fd()
+        self.hook = None
+        while True:
+            try:
+                ready = conn.poll(POLL_S)
+            except (EOFError, OSError):
+                ready = True
+            if self.ctl is not None:
+                self.ctl[CTL_HEARTBEAT] += 1  # a sign of life for the worker's watch
+            self.pump()
+            if self.hook is not None and not ready:
+                component, hook, since = self.hook
+                if time.monotonic() - since > self.settings.hook_timeout:
+                    raise self._hung(component, hook)
+            self.on_poll()
+            if not ready:
+                if self.process is not None and self.process.poll() is not None:
+                    raise self.died(f"during {command!r}")
+                continue
+            try:
+                message = conn.recv()
+            except (EOFError, OSError):
+                raise self.died(f"during {command!r}") from None
+            kind = message[0]
+            if kind == "event":
+                if message[1] == "hook":
+                    component, hook = message[2]
+                    self.hook = (component, hook, time.monotonic())
+                    continue
+                if message[1] == "started":
+                    self.hook = None  # the loop runs: its time is the watchdogs' business
+                self.on_event(message[1], message[2])
+                continue
+            self.pump()
+            if kind == "error":
+                raise error_from_dict(message[1])
+            return message[1]
+
+    def _conn(self) -> Connection:
+        if self.conn is None:
+            raise RtcfError("the worker process is not running; call start() first")
+        return self.conn
+
+    # -- death ------------------------------------------------------------------
+    def _hung(self, component: str, hook: str) -> WorkerDied:
+        """A hook did not return within hook_timeout: kill the worker and say which."""
+        limit = self.settings.hook_timeout
+        self._kill_all()
+        self.pump()
+        self.exit_reported = True
+        return WorkerDied(
+            f"runner {self.name!r}: component {component!r}: {hook}() did not return within "
+            f"{limit:g} s (hook_timeout); the worker process (pid {self.pid}) was killed, so "
+            "the hooks after it did not run; raise hook_timeout if it needs longer"
+        )
+
+    def kill(self) -> None:
+        """Kill the worker at once (SIGKILL): no hook runs any more."""
+        proc = self.process
+        if proc is not None and proc.poll() is None:
+            proc.kill()
+            try:
+                proc.wait(timeout=5.0)
+            except subprocess.TimeoutExpired:
+                pass
+
+    def _running_now(self) -> str:
+        """What the worker was doing, from the running word and the last hook event."""
+        if self.hook is not None:
+            return f" while {self.hook[0]}'s {self.hook[1]}() was running"
+        if self.ctl is None or self.running is None:
+            return ""
+        column = self.ctl[CTL_RUNNING]
+        schedule = self.running[0]
+        if FIXED_COLUMNS <= column < FIXED_COLUMNS + len(schedule):
+            return f" while {schedule[column - FIXED_COLUMNS]}'s update() was running"
+        return ""
+
+    def died(self, when: str) -> WorkerDied:
+        proc = self.process
+        code = None
+        if proc is not None:
+            try:
+                code = proc.wait(timeout=2.0)
+            except subprocess.TimeoutExpired:
+                code = None
+        if code is not None and code < 0:
+            how = f"was killed by {signal.Signals(-code).name}"
+        elif code is not None:
+            how = f"exited with status {code}"
+        else:
+            how = "stopped answering"
+        self.pump()
+        where = ""
+        if self.running is not None:
+            where = f" after iteration {self.running[1].last_iteration}"
+        where += self._running_now()
+        self.exit_reported = True
+        return WorkerDied(
+            f"runner {self.name!r}: {self.label()}the worker process (pid {self.pid}) {how} "
+            f"{when}{where}; the components' stop() and cleanup() did not run"
+        )
+
+    # -- the end ------------------------------------------------------------------
+    def end(self, request_stop: Callable[[], None]) -> None:
+        """End of file on its control channel: the worker cleans up its components and
+        leaves (a loop still running is stopped first, by ``request_stop``); wait for it."""
+        proc = self.process
+        if self.conn is not None:
+            request_stop()
+            self.conn.close()
+            self.conn = None
+        if proc is not None and proc.poll() is None:
+            try:
+                proc.wait(timeout=5.0)
+            except subprocess.TimeoutExpired:
+                proc.terminate()
+                try:
+                    proc.wait(timeout=2.0)
+                except subprocess.TimeoutExpired:
+                    proc.kill()
+                    proc.wait()
+
+    def release_words(self) -> None:
+        """Let go of the control words and the log ring (the worker is gone)."""
+        if self.ctl is not None:
+            self.ctl.release()
+            self.ctl = None
+        if self.log_ring is not None:
+            self.log_ring.close()
+            self.log_ring = None
+
+    def release(self) -> None:
+        """Let go of /clock's mailbox and doorbell and unmap every segment left."""
+        if self.clock_box is not None:
+            self.clock_box.close()
+            self.clock_box = None
+        if self.clock_bell is not None:
+            self.clock_bell.close()
+        for seg in list(self.segments):
+            self.close_segment(seg)
