@@ -24,9 +24,10 @@ from .._core._names import basename, namespace_of
 from .._core._runner import Runner, RunResult
 from .._launch._deployment import Deployment, RunnerDeployment
 from .._launch._files import load_deployment
+from .._runtime._admission import access_of
 from .._runtime._live import FoxgloveLive, RecordSinks
 from .._runtime._mcap import McapRecording
-from .._runtime._supervisor import Bridge, LiveStatus, WorkerRunner, access_of
+from .._runtime._supervisor import Bridge, LiveStatus, WorkerRunner
 from . import _evaluate, _recording_tools
 from . import _replay as _replay_command
 from ._costs import apply_measured_costs

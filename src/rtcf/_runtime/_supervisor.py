@@ -13,7 +13,6 @@ as an error.
 from __future__ import annotations
 
 import dataclasses
-import itertools
 import os
 import subprocess
 import sys
@@ -28,15 +27,10 @@ from .._core._faults import Fault, SafeStopOutcome
 from .._core._lane_names import MAIN_LANE
 from .._core._lanes import lane_of
 from .._core._lifecycle import (
-    OUTCOME_RECORD_SIZE,
-    OUTCOME_RING_RECORDS,
-    STATE_LABELS,
     UNKNOWN,
     TransitionOutcome,
-    decode_outcome,
     refused,
 )
-from .._core._loader import absent_component_class
 from .._core._log import LogLevel, LogRecord, PythonLoggingSink, drain_channel
 from .._core._params import ParameterStore
 from .._core._rings import Mailbox, Ring
@@ -50,26 +44,23 @@ from .._core._timing import (
     row_size,
 )
 from .._core._tunables import (
-    LIFECYCLE,
     LOG_LEVEL,
     PARAMETER,
-    UPDATE_RECORD_SIZE,
-    UPDATE_RING_RECORDS,
     TunableSpec,
-    encode_update,
 )
-from ._admission import access_of
+from ._admission import Admission
 from ._doorbell import ClockFeed, Doorbell
 from ._heap import fill_numpy_cache
 from ._lane_workers import LockedSink, bridged_channels, merge_connections, share_out, whole_loop
 from ._lanes import LaneLayout, abort_all, init_words, layout, reset_stop
 from ._live_status import DIAGNOSTICS_EVERY_S, STATUS_EVERY_S, LiveStatus
+from ._loaded import LoadedComponents
 from ._port_channels import OUTPUT_RING_RECORDS, MailboxFanOut, MappedPort, segment_size
 from ._recording import RecordedTopic, RecordingDrain, RecordSink
 from ._recording import segment_size as recording_segment_size
-from ._request_fields import RequestRefused
 from ._runs import Run, chain_rows, counts_only, note, with_timing_rows
 from ._shm import Segment
+from ._updates import WorkerUpdates
 from ._worker import (
     CTL_FAULTS,
     CTL_STOP,
@@ -116,31 +107,19 @@ class WorkerRunner:
         self._recording: tuple[RecordingDrain, RecordSink] | None = None
         self._started_at: float | None = None  # when the loop last started
         self._last_status = self._last_diagnostics = 0.0  # of the command waited for
-        # loaded components as tools see them (type, ports, parameters, tunables)
-        self.components: dict[str, dict[str, Any]] = {}
-        # what the introspection commands show; refreshed by the main thread after
-        # loads and unloads, read by the bridge's service (which must not wait on it)
-        self.introspection: dict[str, Any] = {}
-        # updates for the worker: the bridge thread sets, the main thread retries
+        # one lock for what the bridge's threads read and change: the loaded
+        # components' entries, the updates for the worker, the transitions waited for
         self._update_lock = threading.Lock()
-        self._update_ring: Ring | None = None
-        self._backlog: dict[tuple[int, str, str], bytes] = {}
-        # lifecycle transitions: asked for by any thread, answered by the worker on the
-        # outcome ring, which the main thread drains (pump)
-        self._outcome_ring: Ring | None = None
-        self._pending: dict[int, _PendingTransition] = {}
-        self._request_numbers = itertools.count(1)
-        # told every transition a component went through (a bridge: transition events)
-        self.transition_listeners: list[Callable[[str, TransitionOutcome], None]] = []
+        self._loaded = LoadedComponents(self._update_lock)
+        self.components = self._loaded.components  # as tools see them (one dict, kept)
+        self._updates = WorkerUpdates(self._loaded)
+        self.admission = Admission(settings, name, self._loaded)
         # wakes a main thread that waits for requests while no loop runs (RequestQueue)
         self.wake_idle: Callable[[], None] | None = None
         self._owner = threading.get_ident()  # the thread of the control channel (start)
         # lanes: this worker's lane; the main lane's runner starts a worker per other
         # lane, routes each component's verbs to its lane, and runs them together
         self.lane = MAIN_LANE
-        # the runner's lock (settings.lock) applies once its loop has run: a launch
-        # file's components load before (docs/security.md)
-        self.locked = False
         self.loop_starts = 0  # LiveStatus.starts
         self._lanes: dict[str, WorkerRunner] = {}
         self._lane_of: dict[str, str] = {}  # component -> lane (other than main)
@@ -176,15 +155,7 @@ class WorkerRunner:
                 self.bridge.follow_clock(self.clock_feed)
             self.clock_feed.add(mine)
         process.open_log(self.log_capacity)
-        # one segment, two rings: updates to the worker, lifecycle outcomes back
-        first = Ring.nbytes(UPDATE_RING_RECORDS, UPDATE_RECORD_SIZE)
-        updates = process.segment(
-            first + Ring.nbytes(OUTCOME_RING_RECORDS, OUTCOME_RECORD_SIZE), "rtcf-updates"
-        )
-        self._update_ring = Ring.create(updates.buf, UPDATE_RING_RECORDS, UPDATE_RECORD_SIZE)
-        view = updates.buf[first:]
-        self._outcome_ring = Ring.create(view, OUTCOME_RING_RECORDS, OUTCOME_RECORD_SIZE)
-        view.release()
+        updates = self._updates.open(process.segment)
         bell_of = self.bridge.doorbell if self.bridge is not None else self.outputs_bell
         bell = bell_of.fd if bell_of is not None else -1
         process.spawn(bell)
@@ -283,11 +254,7 @@ class WorkerRunner:
         if self._recording is not None:
             drain, recording = self._recording
             drain.drain(recording.write)
-        if self._backlog:
-            with self._update_lock:
-                self._send_backlog()
-        if self._outcome_ring is not None and len(self._outcome_ring):
-            self._drain_outcomes()
+        self._updates.pump()
 
     @property
     def log_records_dropped(self) -> int:
@@ -312,28 +279,11 @@ class WorkerRunner:
             log_records_dropped=self.log_records_dropped,
             elapsed_s=time.monotonic() - started,
             faults=self._process.ctl[CTL_FAULTS] if self._process.ctl is not None else 0,
-            access=access_of(self.settings, self.locked),
+            access=self.admission.access,
             starts=self.loop_starts,
         )
 
     # -- the runner's verbs ------------------------------------------------------
-    def _refuse_if_locked(self, what: str, locks: tuple[str, ...] = ("structure", "all")) -> None:
-        if self.locked and self.settings.lock in locks:
-            raise RequestRefused(
-                f"runner {self.name} is locked (lock {self.settings.lock}): it refuses "
-                f"{what} while its loop runs; its launch file or parameters set lock"
-            )
-
-    def _refuse_module(self, module: str, of: str = "") -> None:
-        """RequestRefused if allowed_modules refuse ``module`` (before anything imports
-        it); ``of``: the component it is for, to name in the refusal."""
-        if not self.settings.allows_module(module):
-            whose = f" of {of[:80]!r}" if of else ""
-            raise RequestRefused(
-                f"runner {self.name}: module {module[:80]!r}{whose} is not in its "
-                f"allowed_modules ({' '.join(self.settings.allowed_modules)})"
-            )
-
     def admits(
         self,
         what: str,
@@ -341,31 +291,28 @@ class WorkerRunner:
         component: str | None = None,
         class_name: str | None = None,
     ) -> None:
-        """RequestRefused if the runner's lock or allowed_modules refuse a request, or a
-        load names a component already loaded, or a module or class that does not exist
-        (:func:`absent_component_class`, nothing imported), or an unload one that is not
-        loaded, so that a middleware's service answers it without stopping the loop (any
-        thread). ``what``: "loads", "unloads", "lifecycle transitions" or "tunables"."""
-        if what == "loads" and component is not None and component in self.components:
-            raise RequestRefused(
-                f"component {component[:80]!r}: is already loaded; give each component a "
-                "unique name"
-            )
-        if module is not None:
-            self._refuse_module(module)
-        if what == "tunables":
-            self._refuse_if_locked("changes of tunable parameters", ("all",))
-        else:
-            self._refuse_if_locked(what)
-        if what == "unloads" and component is not None:
-            try:
-                self._component(component)
-            except RtcfError as exc:
-                raise RequestRefused(str(exc)) from None
-        if module and class_name:  # after the lock: a locked runner tells nothing of it
-            problem = absent_component_class(module, class_name, component=component or "")
-            if problem:
-                raise RequestRefused(problem)
+        """RequestRefused if the runner would refuse the request (:meth:`Admission.admits`)."""
+        self.admission.admits(what, module, component, class_name)
+
+    @property
+    def locked(self) -> bool:
+        """Whether the runner's lock applies (once its loop has run)."""
+        return self.admission.locked
+
+    @property
+    def introspection(self) -> dict[str, Any]:
+        return self._loaded.introspection
+
+    @property
+    def transition_listeners(self) -> list[Callable[[str, TransitionOutcome], None]]:
+        """Told every transition a component went through (a bridge: transition events)."""
+        return self._updates.listeners
+
+    @transition_listeners.setter
+    def transition_listeners(self, listeners: list[Callable[[str, TransitionOutcome], None]]
+                             ) -> None:
+        self._updates.listeners = listeners
+
 
     def load(self, spec: ComponentSpec, *, launcher: str = "", refresh: bool = True) -> str:
         """Load a component into its lane's worker. ``refresh=False``: leave the
@@ -373,9 +320,10 @@ class WorkerRunner:
         :meth:`refresh_introspection` after a batch of loads (a launch file's: once per
         load, a thousand components took 20 s)."""
         # before the worker imports it
-        self._refuse_module(spec.cls.__module__ if spec.cls is not None else spec.module,
-                            spec.full_name)
-        self._refuse_if_locked("loads")
+        self.admission.refuse_module(
+            spec.cls.__module__ if spec.cls is not None else spec.module, spec.full_name
+        )
+        self.admission.refuse_if_locked("loads")
         lane = lane_of(spec.lane)
         if lane != self.lane and self.lane == MAIN_LANE:  # another lane's worker loads it
             worker = self._lane_worker(lane)
@@ -414,7 +362,7 @@ class WorkerRunner:
             worker.call("set_parameters", values)
 
     def unload(self, name: str) -> None:
-        self._refuse_if_locked("unloads")
+        self.admission.refuse_if_locked("unloads")
         full = name if name.startswith("/") else "/" + name
         owner = self._owner_of(full)
         if owner is not self:
@@ -429,10 +377,9 @@ class WorkerRunner:
         self.call("unload", full)
         with self._update_lock:
             self.components.pop(full, None)
-            self._backlog = {k: v for k, v in self._backlog.items() if k[1] != full}
-            dropped = [n for n, p in self._pending.items() if p.component == full]
+            dropped = self._updates.forget(full)
         for number in dropped:
-            self._answer(number, refused(UNKNOWN, f"component {full!r} was unloaded"))
+            self._updates.answer(number, refused(UNKNOWN, f"component {full!r} was unloaded"))
         self.refresh_introspection()
         if self.bridge is not None:
             self.bridge.component_unloaded(full)
@@ -451,44 +398,31 @@ class WorkerRunner:
             data["connections"] = merge_connections(
                 data.get("connections", []), more.get("connections", [])
             )
-        with self._update_lock:
-            self.introspection = data
+        self._loaded.publish(data)
         return data
 
     def introspect(self) -> dict[str, Any]:
         """The last introspection data, with the current tunable values and log levels."""
-        with self._update_lock:
-            data = dict(self.introspection)
-            data["components"] = [
-                self.components.get(c["name"], c) for c in data.get("components", [])
-            ]
-        return data
+        return self._loaded.introspect()
+
 
     # -- tuning while running (any thread) ---------------------------------------
     def tunable(self, component: str, name: str) -> TunableSpec:
         """The declaration of a loaded component's tunable parameter."""
-        info = self._component(component)
-        for t in info["tunables"]:
-            if t["name"] == name:
-                return TunableSpec.from_dict({k: v for k, v in t.items() if k != "value"})
-        known = ", ".join(t["name"] for t in info["tunables"]) or "none"
-        raise RtcfError(
-            f"component {info['name']!r} has no tunable parameter {name!r} (it declares: {known})"
-        )
+        return self._loaded.tunable(component, name)
+
 
     def set_parameter(self, component: str, name: str, value: Any) -> Any:
         """Validate a new value here, then hand it to the worker for the next iteration."""
-        self._refuse_if_locked("changes of tunable parameters", ("all",))
+        self.admission.refuse_if_locked("changes of tunable parameters", ("all",))
         owner = self._owner_of(component)
         if owner is not self:
             return owner.set_parameter(component, name, value)
         spec = self.tunable(component, name)
         value = spec.validate(value)
         with self._update_lock:
-            for t in self._component(component)["tunables"]:
-                if t["name"] == name:
-                    t["value"] = value
-            self._post((PARAMETER, spec.component, name), value)
+            self._loaded.set_value(component, name, value)
+            self._updates.post((PARAMETER, spec.component, name), value)
         return value
 
     def set_log_level(self, component: str, level: int | str) -> None:
@@ -497,39 +431,16 @@ class WorkerRunner:
         if owner is not self:
             owner.set_log_level(component, level)
             return
-        info = self._component(component)
+        info = self._loaded.find(component)
         number = LogLevel[level.upper()] if isinstance(level, str) else int(level)
         with self._update_lock:
             info["log_level"] = number
-            self._post((LOG_LEVEL, str(info["name"]), ""), number)
-
-    def _component(self, name: str) -> dict[str, Any]:
-        full = name if name.startswith("/") else "/" + name
-        info = self.components.get(full)
-        if info is None:
-            known = ", ".join(self.components) or "none"
-            raise RtcfError(f"component {full!r} is not loaded (loaded: {known})")
-        return info
-
-    def _post(self, key: tuple[int, str, str], value: Any) -> None:
-        # the newest value of each key wins; older ones still waiting are replaced
-        self._backlog.pop(key, None)
-        self._backlog[key] = encode_update(key[0], key[1], key[2], value)
-        self._send_backlog()
-
-    def _send_backlog(self) -> None:
-        ring = self._update_ring
-        if ring is None:
-            return
-        for key in list(self._backlog):
-            if not ring.push(self._backlog[key]):
-                return  # full: pump() tries again; the worker takes them between iterations
-            del self._backlog[key]
+            self._updates.post((LOG_LEVEL, str(info["name"]), ""), number)
 
     # -- lifecycle (any thread) ------------------------------------------------------
     def lifecycle_state(self, component: str) -> str:
         """A component's lifecycle state as last reported by the worker."""
-        return str(self._component(component).get("lifecycle", "unknown"))
+        return str(self._loaded.find(component).get("lifecycle", "unknown"))
 
     def change_state(
         self, component: str, transition: int | str, timeout: float | None = None
@@ -543,42 +454,30 @@ class WorkerRunner:
         periods) gives up with a refusal; the transition may still happen later (the
         listeners hear of it then).
         """
-        self._refuse_if_locked("lifecycle transitions")
+        self.admission.refuse_if_locked("lifecycle transitions")
         owner = self._owner_of(component)
         if owner is not self:
             return owner.change_state(component, transition, timeout)
-        info = self._component(component)
-        full = str(info["name"])
+        full = str(self._loaded.find(component)["name"])
         if timeout is None:
             timeout = 10.0 + 3.0 / self.settings.frequency
-        pending = _PendingTransition(full)
-        with self._update_lock:
-            number = next(self._request_numbers)
-            self._pending[number] = pending
-            # a key of its own: unlike values, transitions are never merged
-            key = (LIFECYCLE, full, f"#{number}")
-            self._backlog[key] = encode_update(LIFECYCLE, full, str(transition), number)
-            self._send_backlog()
-        if not self.loop_running:  # no loop reads the record: the main thread hands it over
+        return self._updates.change_state(full, transition, timeout, self._hand_over)
+
+    def _hand_over(self) -> None:
+        """A transition waits: when no loop reads the record, the main thread hands it
+        over (or is woken to)."""
+        if not self.loop_running:
             if threading.get_ident() == self._owner:
                 self.sync()
             elif self.wake_idle is not None:
                 self.wake_idle()
-        if not pending.done.wait(timeout):
-            with self._update_lock:
-                self._pending.pop(number, None)
-            return refused(
-                UNKNOWN,
-                f"component {full!r}: no answer to {transition!r} within {timeout:g} s (the "
-                "loop did not reach its next iteration); it may still happen",
-            )
-        assert pending.outcome is not None
-        return pending.outcome
 
     @property
     def transitions_pending(self) -> bool:
         """Whether a transition waits for the worker (the main thread should sync)."""
-        return bool(self._pending) or any(w._pending for w in self._lanes.values())
+        return bool(self._updates.pending) or any(
+            w._updates.pending for w in self._lanes.values()
+        )
 
     @property
     def loop_running(self) -> bool:
@@ -589,33 +488,6 @@ class WorkerRunner:
         self.call("sync")
         for worker in self._lanes.values():
             worker.call("sync")
-
-    def _drain_outcomes(self) -> None:
-        ring = self._outcome_ring
-        assert ring is not None
-        while True:
-            record = ring.pop()
-            if record is None:
-                return
-            number, component, outcome = decode_outcome(record)
-            self._answer(number, outcome, component)
-
-    def _answer(self, number: int, outcome: TransitionOutcome, component: str = "") -> None:
-        """An outcome: the answer to request ``number``, or (0, or a request whose caller
-        gave up waiting) a change all the same: the cache and the listeners hear of it."""
-        with self._update_lock:
-            pending = self._pending.pop(number, None) if number else None
-            if pending is not None:
-                component = pending.component
-            info = self.components.get(component)
-            if info is not None and outcome.result != "refused":
-                info["lifecycle"] = STATE_LABELS[outcome.end]
-        if outcome.result != "refused" and component:
-            for listener in self.transition_listeners:
-                listener(component, outcome)
-        if pending is not None:
-            pending.outcome = outcome
-            pending.done.set()
 
     def activate(self) -> None:
         self.call("activate")
@@ -847,8 +719,7 @@ class WorkerRunner:
 
     def _on_started(self, realtime: dict[str, Any]) -> None:
         self.loop_starts += 1
-        if self.lane == MAIN_LANE and self.settings.lock != "none":
-            self.locked = True
+        self.admission.loop_started(self.lane)
         self._started_at = time.monotonic()
         if self.settings.cpu_affinity_mask:
             keep_off_cpus(realtime.get("cpu_affinity") or [])
@@ -885,15 +756,7 @@ class WorkerRunner:
             self.bridge = None
         self._process.end(self.request_stop)
         self._process.release_words()
-        if self._update_ring is not None:
-            with self._update_lock:
-                self._update_ring.close()
-                self._update_ring = None
-        if self._outcome_ring is not None:
-            self._outcome_ring.close()
-            self._outcome_ring = None
-        for number in list(self._pending):
-            self._answer(number, refused(UNKNOWN, "the runner is shutting down"))
+        self._updates.close()
         self._process.release()
 
     # -- lanes ----------------------------------------------------------------------
@@ -1098,15 +961,6 @@ class WorkerRunner:
                 self.log_sink(note(30, f"lane {name!r}: {info['missed']} releases skipped "
                                         "after overrunning its window (LET overruns)"))
         return main
-
-
-class _PendingTransition:
-    """A transition a caller waits for."""
-
-    def __init__(self, component: str) -> None:
-        self.component = component
-        self.done = threading.Event()
-        self.outcome: TransitionOutcome | None = None
 
 
 class Bridge(Protocol):

@@ -1,0 +1,166 @@
+"""Changes the supervisor sends its worker between iterations, and their answers.
+
+Tunable values, log levels and lifecycle transitions cross to the worker as update
+records on one ring; the loop applies them at the start of its next iteration
+(between runs: before the worker's next command). Any thread may ask; a full ring
+keeps the newest value of each key in a backlog that the main thread sends again
+when it drains. A transition's outcome comes back on the outcome ring: the answer to
+the caller who waits for it, and news for the listeners (a bridge's transition
+events) and for the components' lifecycle states.
+"""
+
+from __future__ import annotations
+
+import itertools
+import threading
+from collections.abc import Callable
+from typing import Any
+
+from .._core._lifecycle import (
+    OUTCOME_RECORD_SIZE,
+    OUTCOME_RING_RECORDS,
+    STATE_LABELS,
+    UNKNOWN,
+    TransitionOutcome,
+    decode_outcome,
+    refused,
+)
+from .._core._rings import Ring
+from .._core._tunables import LIFECYCLE, UPDATE_RECORD_SIZE, UPDATE_RING_RECORDS, encode_update
+from ._loaded import LoadedComponents
+from ._shm import Segment
+
+
+class WorkerUpdates:
+    """The update and outcome rings of one worker, the backlog and the transitions
+    waited for; under the lock of the ``loaded`` components (whose states it sets)."""
+
+    def __init__(self, loaded: LoadedComponents) -> None:
+        self.loaded = loaded
+        self.lock = loaded.lock
+        # updates for the worker: the bridge thread sets, the main thread retries
+        self._ring: Ring | None = None
+        self._backlog: dict[tuple[int, str, str], bytes] = {}
+        # lifecycle transitions: asked for by any thread, answered by the worker on the
+        # outcome ring, which the main thread drains (pump)
+        self._outcomes: Ring | None = None
+        self.pending: dict[int, PendingTransition] = {}
+        self._request_numbers = itertools.count(1)
+        # told every transition a component went through (a bridge: transition events)
+        self.listeners: list[Callable[[str, TransitionOutcome], None]] = []
+
+    def open(self, segment: Callable[[int, str], Segment]) -> Segment:
+        """One segment, two rings: updates to the worker, lifecycle outcomes back."""
+        first = Ring.nbytes(UPDATE_RING_RECORDS, UPDATE_RECORD_SIZE)
+        updates = segment(
+            first + Ring.nbytes(OUTCOME_RING_RECORDS, OUTCOME_RECORD_SIZE), "rtcf-updates"
+        )
+        self._ring = Ring.create(updates.buf, UPDATE_RING_RECORDS, UPDATE_RECORD_SIZE)
+        view = updates.buf[first:]
+        self._outcomes = Ring.create(view, OUTCOME_RING_RECORDS, OUTCOME_RECORD_SIZE)
+        view.release()
+        return updates
+
+    def pump(self) -> None:
+        """Send what waits in the backlog, and hand out the outcomes (main thread)."""
+        if self._backlog:
+            with self.lock:
+                self._send_backlog()
+        if self._outcomes is not None and len(self._outcomes):
+            self._drain_outcomes()
+
+    def post(self, key: tuple[int, str, str], value: Any) -> None:
+        """Send a new value (under the lock)."""
+        # the newest value of each key wins; older ones still waiting are replaced
+        self._backlog.pop(key, None)
+        self._backlog[key] = encode_update(key[0], key[1], key[2], value)
+        self._send_backlog()
+
+    def _send_backlog(self) -> None:
+        ring = self._ring
+        if ring is None:
+            return
+        for key in list(self._backlog):
+            if not ring.push(self._backlog[key]):
+                return  # full: pump() tries again; the worker takes them between iterations
+            del self._backlog[key]
+
+    def forget(self, component: str) -> list[int]:
+        """An unloaded component: drop its updates; answer the transitions it waits
+        for (their numbers) after the lock (under the lock)."""
+        self._backlog = {k: v for k, v in self._backlog.items() if k[1] != component}
+        return [n for n, p in self.pending.items() if p.component == component]
+
+    # -- lifecycle ----------------------------------------------------------------------
+    def change_state(
+        self, full: str, transition: int | str, timeout: float, hand_over: Callable[[], None]
+    ) -> TransitionOutcome:
+        """Ask for a transition and wait for its outcome; ``hand_over``: have a worker
+        whose loop does not run read it."""
+        pending = PendingTransition(full)
+        with self.lock:
+            number = next(self._request_numbers)
+            self.pending[number] = pending
+            # a key of its own: unlike values, transitions are never merged
+            key = (LIFECYCLE, full, f"#{number}")
+            self._backlog[key] = encode_update(LIFECYCLE, full, str(transition), number)
+            self._send_backlog()
+        hand_over()
+        if not pending.done.wait(timeout):
+            with self.lock:
+                self.pending.pop(number, None)
+            return refused(
+                UNKNOWN,
+                f"component {full!r}: no answer to {transition!r} within {timeout:g} s (the "
+                "loop did not reach its next iteration); it may still happen",
+            )
+        assert pending.outcome is not None
+        return pending.outcome
+
+    def _drain_outcomes(self) -> None:
+        ring = self._outcomes
+        assert ring is not None
+        while True:
+            record = ring.pop()
+            if record is None:
+                return
+            number, component, outcome = decode_outcome(record)
+            self.answer(number, outcome, component)
+
+    def answer(self, number: int, outcome: TransitionOutcome, component: str = "") -> None:
+        """An outcome: the answer to request ``number``, or (0, or a request whose caller
+        gave up waiting) a change all the same: the cache and the listeners hear of it."""
+        with self.lock:
+            pending = self.pending.pop(number, None) if number else None
+            if pending is not None:
+                component = pending.component
+            if outcome.result != "refused":
+                self.loaded.set_lifecycle(component, STATE_LABELS[outcome.end])
+        if outcome.result != "refused" and component:
+            for listener in self.listeners:
+                listener(component, outcome)
+        if pending is not None:
+            pending.outcome = outcome
+            pending.done.set()
+
+    def close(self) -> None:
+        """The worker is gone: no more rings; every transition still waited for is
+        refused."""
+        if self._ring is not None:
+            with self.lock:
+                self._ring.close()
+                self._ring = None
+        if self._outcomes is not None:
+            self._outcomes.close()
+            self._outcomes = None
+        for number in list(self.pending):
+            self.answer(number, refused(UNKNOWN, "the runner is shutting down"))
+
+
+class PendingTransition:
+    """A transition a caller waits for."""
+
+    def __init__(self, component: str) -> None:
+        self.component = component
+        self.done = threading.Event()
+        self.outcome: TransitionOutcome | None = None
