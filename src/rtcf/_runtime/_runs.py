@@ -10,16 +10,31 @@ channels dropped or replaced.
 from __future__ import annotations
 
 import dataclasses
+import time
 from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Any
 
+from .._core._faults import Fault, SafeStopOutcome
+from .._core._lane_names import MAIN_LANE
 from .._core._log import LogRecord
 from .._core._rings import Mailbox, Ring
-from .._core._timing import TimingAggregate, TimingSummary
-from ._port_channels import MappedPort
+from .._core._runner import RunResult
+from .._core._settings import RunnerSettings
+from .._core._timing import (
+    CONSUME_BATCH,
+    TimingAggregate,
+    TimingSummary,
+    ring_capacity,
+    row_size,
+)
+from ._port_channels import OUTPUT_RING_RECORDS, MappedPort, segment_size
 from ._recording import RecordedTopic, RecordingDrain, RecordSink
+from ._recording import segment_size as recording_segment_size
 from ._shm import Segment
+from ._worker_process import WorkerProcess
+
+PUMP_ROWS = 8 * CONSUME_BATCH  # timing rows aggregated per pump, at most
 
 
 @dataclass
@@ -67,3 +82,183 @@ def with_timing_rows(
 def counts_only(timing: TimingSummary) -> TimingSummary:
     """On a simulated clock, the measured times mean nothing: keep only the counts."""
     return TimingSummary(iterations=timing.iterations, samples=0, overruns=timing.overruns)
+
+
+class RunChannels:
+    """The runs of one worker, one at a time: the segments of the run under way and
+    what drains them. ``call`` is the runner's control channel (its status line ticks
+    while the run waits)."""
+
+    def __init__(
+        self,
+        process: WorkerProcess,
+        call: Callable[..., Any],
+        settings: RunnerSettings,
+        *,
+        lane: str,
+        simulated: bool,
+        log_sink: Callable[[LogRecord], None],
+    ) -> None:
+        self._process = process
+        self.call = call
+        self.settings = settings
+        self.lane = lane
+        self.simulated = simulated
+        self.log_sink = log_sink
+        # while a run is under way: its timing ring, schedule and aggregate, and the
+        # recording's drain and sink
+        self._timing: tuple[Ring, list[str], TimingAggregate] | None = None
+        self._recording: tuple[RecordingDrain, RecordSink] | None = None
+
+    @property
+    def running(self) -> bool:
+        return self._timing is not None
+
+    @property
+    def aggregate(self) -> TimingAggregate | None:
+        """The timing of the run under way (None between runs)."""
+        return self._timing[2] if self._timing is not None else None
+
+    def drain(self) -> None:
+        """Aggregate timing rows and write recorded values (non-real-time, often)."""
+        if self._timing is not None:
+            ring, names, aggregate = self._timing
+            # a bounded share each time: a supervisor that falls behind its rows must
+            # still beat its heartbeat and serve requests (the ring counts what it drops)
+            aggregate.consume(ring, names, PUMP_ROWS)
+        if self._recording is not None:
+            drain, recording = self._recording
+            drain.drain(recording.write)
+
+
+    def ros_offset(self) -> int:
+        """What turns a timing row's scheduled start into ROS time: 0 on a simulated
+        clock and on /clock time, else wall minus monotonic (taken once per run)."""
+        if self.simulated or self.settings.use_sim_time:
+            return 0
+        return time.time_ns() - time.monotonic_ns()
+
+    def prepare(self, bridged: bool, record: RecordSink | None) -> dict[str, Any]:
+        """Compile the worker's schedule: its mapped ports and recorded topics."""
+        return self.call(
+            "prepare", bridged, record.pattern if record is not None else None
+        )
+
+    def open(
+        self,
+        prepared: dict[str, Any],
+        record: RecordSink | None,
+        ros_offset: int,
+        iteration_info: Callable[[Any], None] | None,
+    ) -> Run:
+        """A run's segments: timing, the mapped ports' channels, the recording's rings."""
+        schedule: list[str] = prepared["schedule"]
+        ports: list[MappedPort] = prepared["ports"]
+        recorded: list[RecordedTopic] = prepared["recorded"]
+        run = Run(schedule, ports, recorded, record, ros_offset)
+        if record is not None and recorded:
+            record.begin(recorded)
+            run.rec_seg = self._process.segment(recording_segment_size(recorded), "rtcf-record")
+            run.drain = RecordingDrain(run.rec_seg.buf, recorded)
+            self._recording = (run.drain, record)
+        capacity = ring_capacity(len(schedule))
+        run.seg = self._process.segment(
+            Ring.nbytes(capacity, row_size(len(schedule))), "rtcf-timing"
+        )
+        run.ring = Ring.create(run.seg.buf, capacity, row_size(len(schedule)))
+        run.port_seg, run.channels = self._port_channels(ports)
+        if iteration_info is not None and self.settings.iteration_info:
+            run.aggregate.on_rows = iteration_info
+        # wall minus monotonic, once per run, for the loop and the recording alike: every
+        # recorded channel, the timing rows too, is stamped with the same offset
+        if record is not None and hasattr(record, "timing_rows") and self.lane == MAIN_LANE:
+            run.aggregate.on_rows = with_timing_rows(run.aggregate.on_rows, record, ros_offset)
+        self._timing = (run.ring, schedule, run.aggregate)
+        self._process.running = (schedule, run.aggregate)
+        return run
+
+    def call_run(
+        self, run: Run, iterations: int | None, trace: str | None, lane_run: int | None
+    ) -> dict[str, Any]:
+        offset = None if self.simulated or self.settings.use_sim_time else run.ros_offset
+        done: dict[str, Any] = self.call(
+            "run", iterations, run.seg, trace, run.port_seg, run.ports, run.rec_seg,
+            run.recorded or None, offset, lane_run,
+        )
+        run.done = done
+        return done
+
+    def close(self, run: Run) -> None:
+        """Drain what is left and let go of the run's segments (the bridge is closed)."""
+        self._timing = None
+        self._process.running = None
+        self._recording = None
+        record = run.record
+        if run.drain is not None and record is not None and run.rec_seg is not None:
+            run.drain.drain(record.write)
+            record.end_run(run.drain.dropped(), {})
+            run.drain.close()
+            self._process.close_segment(run.rec_seg)
+        if run.ring is not None and run.seg is not None:
+            run.aggregate.finish(run.ring, run.schedule)
+            run.ring.close()
+            self._process.close_segment(run.seg)
+        run.arrived = {t: c.version for t, c in run.channels.items() if isinstance(c, Mailbox)}
+        for topic, channel in run.channels.items():
+            if isinstance(channel, Ring) and channel.dropped:
+                self.log_sink(note(30, f"{channel.dropped} messages on {topic} were dropped: "
+                                        "the channel to the middleware was full"))
+            channel.close()
+        if run.port_seg is not None:
+            self._process.close_segment(run.port_seg)
+        done = run.done
+        if done is None:
+            return
+        if record is not None:
+            record.end_run({}, done.get("recording", {}))
+        for topic, n in done.get("oversize", {}).items():
+            self.log_sink(note(30, f"{n} messages on {topic} were larger than a channel record "
+                                    "and were not published"))
+        for topic, n in sorted(done.get("inputs", {}).items()):
+            arrived, superseded = run.arrived.get(topic, 0), n["superseded"]
+            if superseded:  # the meaning of a mapped input (the latest value), said once
+                self.log_sink(note(20, f"{superseded} of {arrived} messages on {topic} were "
+                                        "replaced by a newer one before an iteration read "
+                                        "them (a mapped input holds the latest value)"))
+
+    def result(self, run: Run, done: dict[str, Any], log_records_dropped: int) -> RunResult:
+        aggregate = run.aggregate
+        timing = aggregate.summary(done["rows"], done["overruns"])
+        return RunResult(
+            iterations=done["iterations"],
+            stopped_by=done["stopped_by"],
+            timing=timing if not done["simulated"] else counts_only(timing),
+            order=done["order"],
+            log_records_dropped=log_records_dropped,
+            simulated=done["simulated"],
+            realtime=done["realtime"],
+            aggregate=aggregate,
+            faults=[Fault(**f) for f in done.get("faults", [])],
+            safe_stops=[SafeStopOutcome(**o) for o in done.get("safe_stops", [])],
+            lanes={self.lane: {"handovers": done.get("handovers", {}),
+                               "missed": done.get("missed", 0)}},
+            inputs={t: {"arrived": run.arrived.get(t, 0), **n}
+                    for t, n in sorted(done.get("inputs", {}).items())},
+        )
+
+    def _port_channels(
+        self, ports: list[MappedPort]
+    ) -> tuple[Segment | None, dict[str, Ring | Mailbox]]:
+        """One segment holding a ring per mapped output and a mailbox per mapped input."""
+        if not ports:
+            return None, {}
+        seg = self._process.segment(segment_size(ports), "rtcf-ports")
+        channels: dict[str, Ring | Mailbox] = {}
+        for p in ports:
+            view = seg.buf[p.offset : p.offset + p.nbytes]
+            if p.direction == "output":
+                channels[p.topic] = Ring.create(view, OUTPUT_RING_RECORDS, 8 + p.max_size)
+            else:
+                channels[p.topic] = Mailbox.create(view, p.max_size)
+            view.release()
+        return seg, channels

@@ -23,7 +23,6 @@ from typing import Any, Protocol
 
 from .._core._errors import RtcfError
 from .._core._executor import ABORT, CONTROL, STOP
-from .._core._faults import Fault, SafeStopOutcome
 from .._core._lane_names import MAIN_LANE
 from .._core._lanes import lane_of
 from .._core._lifecycle import (
@@ -37,11 +36,8 @@ from .._core._rings import Mailbox, Ring
 from .._core._runner import ComponentSpec, RunResult
 from .._core._settings import RunnerSettings, lane_placement
 from .._core._timing import (
-    CONSUME_BATCH,
     LoopSpan,
     TimingAggregate,
-    ring_capacity,
-    row_size,
 )
 from .._core._tunables import (
     LOG_LEVEL,
@@ -55,10 +51,9 @@ from ._lane_workers import LockedSink, bridged_channels, merge_connections, shar
 from ._lanes import LaneLayout, abort_all, init_words, layout, reset_stop
 from ._live_status import DIAGNOSTICS_EVERY_S, STATUS_EVERY_S, LiveStatus
 from ._loaded import LoadedComponents
-from ._port_channels import OUTPUT_RING_RECORDS, MailboxFanOut, MappedPort, segment_size
-from ._recording import RecordedTopic, RecordingDrain, RecordSink
-from ._recording import segment_size as recording_segment_size
-from ._runs import Run, chain_rows, counts_only, note, with_timing_rows
+from ._port_channels import MailboxFanOut, MappedPort
+from ._recording import RecordSink
+from ._runs import Run, RunChannels, chain_rows, note
 from ._shm import Segment
 from ._updates import WorkerUpdates
 from ._worker import (
@@ -67,8 +62,6 @@ from ._worker import (
     error_from_dict,
 )
 from ._worker_process import POLL_S, WorkerProcess, keep_off_cpus
-
-PUMP_ROWS = 8 * CONSUME_BATCH  # timing rows aggregated per pump, at most
 
 
 class WorkerRunner:
@@ -87,6 +80,7 @@ class WorkerRunner:
         on_status: Callable[[LiveStatus], None] | None = None,
         on_started: Callable[[dict[str, Any]], None] | None = None,
         bridge: Bridge | None = None,
+        lane: str = MAIN_LANE,
     ) -> None:
         self.settings = settings
         self.name = name
@@ -103,8 +97,6 @@ class WorkerRunner:
             settings, name, pump=self.pump, on_poll=self._on_poll, on_event=self._on_event,
             kill=self.kill, label=self._lane_label,
         )
-        self._timing: tuple[Ring, list[str], TimingAggregate] | None = None
-        self._recording: tuple[RecordingDrain, RecordSink] | None = None
         self._started_at: float | None = None  # when the loop last started
         self._last_status = self._last_diagnostics = 0.0  # of the command waited for
         # one lock for what the bridge's threads read and change: the loaded
@@ -114,12 +106,16 @@ class WorkerRunner:
         self.components = self._loaded.components  # as tools see them (one dict, kept)
         self._updates = WorkerUpdates(self._loaded)
         self.admission = Admission(settings, name, self._loaded)
+        self._runs = RunChannels(
+            self._process, self.call, settings, lane=lane, simulated=simulated,
+            log_sink=self.log_sink,
+        )
         # wakes a main thread that waits for requests while no loop runs (RequestQueue)
         self.wake_idle: Callable[[], None] | None = None
         self._owner = threading.get_ident()  # the thread of the control channel (start)
         # lanes: this worker's lane; the main lane's runner starts a worker per other
         # lane, routes each component's verbs to its lane, and runs them together
-        self.lane = MAIN_LANE
+        self.lane = lane
         self.loop_starts = 0  # LiveStatus.starts
         self._lanes: dict[str, WorkerRunner] = {}
         self._lane_of: dict[str, str] = {}  # component -> lane (other than main)
@@ -203,12 +199,12 @@ class WorkerRunner:
 
     def _on_poll(self) -> None:
         """Every polling interval of a command: the status line and diagnostics."""
-        if self.on_status is not None and self._timing is not None:
+        if self.on_status is not None and self._runs.running:
             now = time.monotonic()
             if now - self._last_status >= STATUS_EVERY_S:
                 self._last_status = now
                 self.on_status(self.live_status())
-        if self.bridge is not None and self._timing is not None:
+        if self.bridge is not None and self._runs.running:
             now = time.monotonic()
             if now - self._last_diagnostics >= DIAGNOSTICS_EVERY_S:
                 self._last_diagnostics = now
@@ -246,14 +242,7 @@ class WorkerRunner:
         """Drain log records and timing rows (non-real-time work, called often)."""
         if self._process.log_ring is not None:
             drain_channel(self._process.log_ring, self.log_sink)
-        if self._timing is not None:
-            ring, names, aggregate = self._timing
-            # a bounded share each time: a supervisor that falls behind its rows must
-            # still beat its heartbeat and serve requests (the ring counts what it drops)
-            aggregate.consume(ring, names, PUMP_ROWS)
-        if self._recording is not None:
-            drain, recording = self._recording
-            drain.drain(recording.write)
+        self._runs.drain()
         self._updates.pump()
 
     @property
@@ -263,7 +252,7 @@ class WorkerRunner:
 
     def _live_aggregate(self) -> TimingAggregate:
         """The run's timing so far: with lanes the loop's as a whole."""
-        aggregate = self._timing[2] if self._timing else TimingAggregate()
+        aggregate = self._runs.aggregate or TimingAggregate()
         span = self._span
         return span.snapshot(aggregate) if span is not None else aggregate
 
@@ -481,7 +470,7 @@ class WorkerRunner:
 
     @property
     def loop_running(self) -> bool:
-        return self._timing is not None
+        return self._runs.running
 
     def sync(self) -> None:
         """Have the worker apply what waits for it, when no loop runs (main thread)."""
@@ -558,13 +547,6 @@ class WorkerRunner:
         inputs): its own bridge, or the main lane's for a lane's worker."""
         return self.bridge is not None or self.outputs_bell is not None
 
-    def _ros_offset(self) -> int:
-        """What turns a timing row's scheduled start into ROS time: 0 on a simulated
-        clock and on /clock time, else wall minus monotonic (taken once per run)."""
-        if self.simulated or self.settings.use_sim_time:
-            return 0
-        return time.time_ns() - time.monotonic_ns()
-
     def run(
         self,
         iterations: int | None = None,
@@ -585,137 +567,38 @@ class WorkerRunner:
         trace: str | None,
         record: RecordSink | None,
     ) -> RunResult:
-        run = self._open_run(self._prepare(record), record, self._ros_offset())
+        run = self.open_run(self.prepare_run(record), record, self._runs.ros_offset())
         try:
             if self.bridge is not None and run.ports:
                 self.bridge.open(run.ports, run.channels)
-            done = self._call_run(run, iterations, trace, None)
+            done = self.call_run(run, iterations, trace, None)
         finally:
             if self.bridge is not None and run.ports:
                 self.bridge.close_run()
-            self._close_run(run)
-        return self._result(run, done)
+            self.close_run(run)
+        return self.run_result(run, done)
 
-    def _prepare(self, record: RecordSink | None) -> dict[str, Any]:
+    # a run of this worker (the main lane runs the other lanes' workers' with its own)
+    def prepare_run(self, record: RecordSink | None) -> dict[str, Any]:
         """Compile the worker's schedule: its mapped ports and recorded topics."""
-        return self.call(
-            "prepare", self.bridged, record.pattern if record is not None else None
-        )
+        return self._runs.prepare(self.bridged, record)
 
-    def _open_run(
+    def open_run(
         self, prepared: dict[str, Any], record: RecordSink | None, ros_offset: int
     ) -> Run:
-        """A run's segments: timing, the mapped ports' channels, the recording's rings."""
-        schedule: list[str] = prepared["schedule"]
-        ports: list[MappedPort] = prepared["ports"]
-        recorded: list[RecordedTopic] = prepared["recorded"]
-        run = Run(schedule, ports, recorded, record, ros_offset)
-        if record is not None and recorded:
-            record.begin(recorded)
-            run.rec_seg = self._process.segment(recording_segment_size(recorded), "rtcf-record")
-            run.drain = RecordingDrain(run.rec_seg.buf, recorded)
-            self._recording = (run.drain, record)
-        capacity = ring_capacity(len(schedule))
-        run.seg = self._process.segment(
-            Ring.nbytes(capacity, row_size(len(schedule))), "rtcf-timing"
-        )
-        run.ring = Ring.create(run.seg.buf, capacity, row_size(len(schedule)))
-        run.port_seg, run.channels = self._port_channels(ports)
-        if self.bridge is not None and self.settings.iteration_info:
-            run.aggregate.on_rows = self.bridge.iteration_info
-        # wall minus monotonic, once per run, for the loop and the recording alike: every
-        # recorded channel, the timing rows too, is stamped with the same offset
-        if record is not None and hasattr(record, "timing_rows") and self.lane == MAIN_LANE:
-            run.aggregate.on_rows = with_timing_rows(run.aggregate.on_rows, record, ros_offset)
-        self._timing = (run.ring, schedule, run.aggregate)
-        self._process.running = (schedule, run.aggregate)
-        return run
+        info = self.bridge.iteration_info if self.bridge is not None else None
+        return self._runs.open(prepared, record, ros_offset, info)
 
-    def _call_run(
+    def call_run(
         self, run: Run, iterations: int | None, trace: str | None, lane_run: int | None
     ) -> dict[str, Any]:
-        offset = None if self.simulated or self.settings.use_sim_time else run.ros_offset
-        done: dict[str, Any] = self.call(
-            "run", iterations, run.seg, trace, run.port_seg, run.ports, run.rec_seg,
-            run.recorded or None, offset, lane_run,
-        )
-        run.done = done
-        return done
+        return self._runs.call_run(run, iterations, trace, lane_run)
 
-    def _close_run(self, run: Run) -> None:
-        """Drain what is left and let go of the run's segments (the bridge is closed)."""
-        self._timing = None
-        self._process.running = None
-        self._recording = None
-        record = run.record
-        if run.drain is not None and record is not None and run.rec_seg is not None:
-            run.drain.drain(record.write)
-            record.end_run(run.drain.dropped(), {})
-            run.drain.close()
-            self._process.close_segment(run.rec_seg)
-        if run.ring is not None and run.seg is not None:
-            run.aggregate.finish(run.ring, run.schedule)
-            run.ring.close()
-            self._process.close_segment(run.seg)
-        run.arrived = {t: c.version for t, c in run.channels.items() if isinstance(c, Mailbox)}
-        for topic, channel in run.channels.items():
-            if isinstance(channel, Ring) and channel.dropped:
-                self.log_sink(note(30, f"{channel.dropped} messages on {topic} were dropped: "
-                                        "the channel to the middleware was full"))
-            channel.close()
-        if run.port_seg is not None:
-            self._process.close_segment(run.port_seg)
-        done = run.done
-        if done is None:
-            return
-        if record is not None:
-            record.end_run({}, done.get("recording", {}))
-        for topic, n in done.get("oversize", {}).items():
-            self.log_sink(note(30, f"{n} messages on {topic} were larger than a channel record "
-                                    "and were not published"))
-        for topic, n in sorted(done.get("inputs", {}).items()):
-            arrived, superseded = run.arrived.get(topic, 0), n["superseded"]
-            if superseded:  # the meaning of a mapped input (the latest value), said once
-                self.log_sink(note(20, f"{superseded} of {arrived} messages on {topic} were "
-                                        "replaced by a newer one before an iteration read "
-                                        "them (a mapped input holds the latest value)"))
+    def close_run(self, run: Run) -> None:
+        self._runs.close(run)
 
-    def _result(self, run: Run, done: dict[str, Any]) -> RunResult:
-        aggregate = run.aggregate
-        timing = aggregate.summary(done["rows"], done["overruns"])
-        return RunResult(
-            iterations=done["iterations"],
-            stopped_by=done["stopped_by"],
-            timing=timing if not done["simulated"] else counts_only(timing),
-            order=done["order"],
-            log_records_dropped=self.log_records_dropped,
-            simulated=done["simulated"],
-            realtime=done["realtime"],
-            aggregate=aggregate,
-            faults=[Fault(**f) for f in done.get("faults", [])],
-            safe_stops=[SafeStopOutcome(**o) for o in done.get("safe_stops", [])],
-            lanes={self.lane: {"handovers": done.get("handovers", {}),
-                               "missed": done.get("missed", 0)}},
-            inputs={t: {"arrived": run.arrived.get(t, 0), **n}
-                    for t, n in sorted(done.get("inputs", {}).items())},
-        )
-
-    def _port_channels(
-        self, ports: list[MappedPort]
-    ) -> tuple[Segment | None, dict[str, Ring | Mailbox]]:
-        """One segment holding a ring per mapped output and a mailbox per mapped input."""
-        if not ports:
-            return None, {}
-        seg = self._process.segment(segment_size(ports), "rtcf-ports")
-        channels: dict[str, Ring | Mailbox] = {}
-        for p in ports:
-            view = seg.buf[p.offset : p.offset + p.nbytes]
-            if p.direction == "output":
-                channels[p.topic] = Ring.create(view, OUTPUT_RING_RECORDS, 8 + p.max_size)
-            else:
-                channels[p.topic] = Mailbox.create(view, p.max_size)
-            view.release()
-        return seg, channels
+    def run_result(self, run: Run, done: dict[str, Any]) -> RunResult:
+        return self._runs.result(run, done, self.log_records_dropped)
 
     def _on_started(self, realtime: dict[str, Any]) -> None:
         self.loop_starts += 1
@@ -796,8 +679,8 @@ class WorkerRunner:
             log_level=self.log_level,
             log_sink=self.log_sink,
             log_capacity=self.log_capacity,
+            lane=lane,
         )
-        worker.lane = lane
         worker.outputs_bell = self.bridge.doorbell if self.bridge is not None else None
         worker.clock_feed = self.clock_feed
         worker.transition_listeners = self.transition_listeners
@@ -868,9 +751,9 @@ class WorkerRunner:
         lane_run = self._lane_runs
         workers = self._running_lanes()
         sink = LockedSink(record) if record is not None else None
-        prepared = {name: w._prepare(sink) for name, w in workers.items()}
+        prepared = {name: w.prepare_run(sink) for name, w in workers.items()}
         share_out(prepared)
-        ros_offset = self._ros_offset()
+        ros_offset = self._runs.ros_offset()
         runs: dict[str, Run] = {}
         failures: list[tuple[float, BaseException]] = []
         results: dict[str, RunResult] = {}
@@ -882,7 +765,7 @@ class WorkerRunner:
             lock_step = [n for n in workers if every.get(n, 1) == 1]
             span = self._span = LoopSpan(len(lock_step), self.settings.period_ns)
             for name, w in workers.items():
-                runs[name] = w._open_run(prepared[name], sink, ros_offset)
+                runs[name] = w.open_run(prepared[name], sink, ros_offset)
                 if name == MAIN_LANE:  # iteration_info and a recording's: the loop's rows
                     span.on_rows, runs[name].aggregate.on_rows = runs[name].aggregate.on_rows, None
                 if name in lock_step:
@@ -897,8 +780,8 @@ class WorkerRunner:
             def lane(name: str, worker: WorkerRunner) -> None:
                 try:
                     # (the main lane's count ends every lane after the same iteration)
-                    done = worker._call_run(runs[name], None, None, lane_run)
-                    results[name] = worker._result(runs[name], done)
+                    done = worker.call_run(runs[name], None, None, lane_run)
+                    results[name] = worker.run_result(runs[name], done)
                 except BaseException as exc:
                     failures.append((time.monotonic(), exc))
                     self._abort_lanes()
@@ -911,8 +794,8 @@ class WorkerRunner:
             for t in threads:
                 t.start()
             try:
-                main = self._result(runs[MAIN_LANE],
-                                    self._call_run(runs[MAIN_LANE], iterations, trace, lane_run))
+                main = self.run_result(runs[MAIN_LANE],
+                                       self.call_run(runs[MAIN_LANE], iterations, trace, lane_run))
             except BaseException as exc:
                 failures.append((time.monotonic(), exc))
                 self._abort_lanes()
@@ -926,7 +809,7 @@ class WorkerRunner:
             if opened and self.bridge is not None:
                 self.bridge.close_run()
             for name, run in runs.items():
-                workers[name]._close_run(run)
+                workers[name].close_run(run)
         if failures:
             raise min(failures, key=lambda f: f[0])[1]
         assert main is not None
