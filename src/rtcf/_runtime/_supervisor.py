@@ -13,7 +13,6 @@ as an error.
 from __future__ import annotations
 
 import dataclasses
-import os
 import subprocess
 import sys
 import threading
@@ -34,9 +33,8 @@ from .._core._log import LogLevel, LogRecord, PythonLoggingSink, drain_channel
 from .._core._params import ParameterStore
 from .._core._rings import Mailbox, Ring
 from .._core._runner import ComponentSpec, RunResult
-from .._core._settings import RunnerSettings, lane_placement
+from .._core._settings import RunnerSettings
 from .._core._timing import (
-    LoopSpan,
     TimingAggregate,
 )
 from .._core._tunables import (
@@ -47,21 +45,19 @@ from .._core._tunables import (
 from ._admission import Admission
 from ._doorbell import ClockFeed, Doorbell
 from ._heap import fill_numpy_cache
-from ._lane_workers import LockedSink, bridged_channels, merge_connections, share_out, whole_loop
-from ._lanes import LaneLayout, abort_all, init_words, layout, reset_stop
+from ._lane_workers import LaneWorkers, merge_connections
 from ._live_status import DIAGNOSTICS_EVERY_S, STATUS_EVERY_S, LiveStatus
 from ._loaded import LoadedComponents
 from ._port_channels import MailboxFanOut, MappedPort
 from ._recording import RecordSink
-from ._runs import Run, RunChannels, chain_rows, note
-from ._shm import Segment
+from ._runs import Run, RunChannels, note
 from ._updates import WorkerUpdates
 from ._worker import (
     CTL_FAULTS,
     CTL_STOP,
     error_from_dict,
 )
-from ._worker_process import POLL_S, WorkerProcess, keep_off_cpus
+from ._worker_process import WorkerProcess, keep_off_cpus
 
 
 class WorkerRunner:
@@ -117,14 +113,10 @@ class WorkerRunner:
         # lane, routes each component's verbs to its lane, and runs them together
         self.lane = lane
         self.loop_starts = 0  # LiveStatus.starts
-        self._lanes: dict[str, WorkerRunner] = {}
-        self._lane_of: dict[str, str] = {}  # component -> lane (other than main)
-        self._lane_seg: Segment | None = None
-        self._lane_layout: LaneLayout | None = None
-        self._lane_runs = 0
-        self.lane_placement: dict[str, str] = {}  # lane -> where it runs, said once
-        self.say_lanes = True  # in the log at info level (rtcf launch says it itself)
-        self._span: LoopSpan | None = None  # while lanes run: the loop as a whole
+        self._lanes: LaneWorkers[WorkerRunner] = LaneWorkers(
+            settings, name, self.log_sink, start=self._start_lane,
+            segment=self._process.segment, close_segment=self._process.close_segment,
+        )
         # a lane's worker rings the main lane's bridge after pushing outputs to publish
         # and follows the /clock the main lane's bridge receives (use_sim_time)
         self.clock_feed: ClockFeed | None = None
@@ -229,13 +221,13 @@ class WorkerRunner:
 
     def kill(self) -> None:
         """Kill the worker at once (SIGKILL): no hook runs any more."""
-        for worker in self._lanes.values():
+        for worker in self._lanes.workers.values():
             worker.kill()
         self._process.kill()
 
     def _lane_label(self) -> str:
         """Which lane a worker's death message names: none when no lanes run."""
-        return f"lane {self.lane!r}: " if self.lane != MAIN_LANE or self._lanes else ""
+        return f"lane {self.lane!r}: " if self.lane != MAIN_LANE or self._lanes.workers else ""
 
     # -- draining ------------------------------------------------------------------
     def pump(self) -> None:
@@ -253,7 +245,7 @@ class WorkerRunner:
     def _live_aggregate(self) -> TimingAggregate:
         """The run's timing so far: with lanes the loop's as a whole."""
         aggregate = self._runs.aggregate or TimingAggregate()
-        span = self._span
+        span = self._lanes.span
         return span.snapshot(aggregate) if span is not None else aggregate
 
     def live_status(self) -> LiveStatus:
@@ -315,11 +307,11 @@ class WorkerRunner:
         self.admission.refuse_if_locked("loads")
         lane = lane_of(spec.lane)
         if lane != self.lane and self.lane == MAIN_LANE:  # another lane's worker loads it
-            worker = self._lane_worker(lane)
+            worker = self._lanes.worker(lane)
             full = worker.load(spec, launcher=launcher, refresh=refresh)
             with self._update_lock:
                 info = self.components[full] = worker.components[full]
-                self._lane_of[full] = lane
+                self._lanes.lane_of[full] = lane
             if refresh:
                 self.refresh_introspection()
             if self.bridge is not None:
@@ -347,7 +339,7 @@ class WorkerRunner:
         for name, value in values.items():
             self.parameters.set(name, value)
         self.call("set_parameters", values)
-        for worker in self._lanes.values():
+        for worker in self._lanes.workers.values():
             worker.call("set_parameters", values)
 
     def unload(self, name: str) -> None:
@@ -358,7 +350,7 @@ class WorkerRunner:
             owner.unload(full)
             with self._update_lock:
                 self.components.pop(full, None)
-                self._lane_of.pop(full, None)
+                self._lanes.lane_of.pop(full, None)
             self.refresh_introspection()
             if self.bridge is not None:
                 self.bridge.component_unloaded(full)
@@ -374,14 +366,14 @@ class WorkerRunner:
             self.bridge.component_unloaded(full)
 
     def refresh_introspection(self) -> dict[str, Any]:
-        if self._lanes:  # the order over every lane's components
+        if self._lanes.workers:  # the order over every lane's components
             try:
-                self._sync_lanes(mirror=False)
+                self._lanes.sync(self, mirror=False)
             except RtcfError:
                 pass  # the introspection's "problem" says it
         data = dict(self.call("introspect"))
         data["runner"] = self.name
-        for worker in self._lanes.values():
+        for worker in self._lanes.workers.values():
             more = worker.introspection
             data["components"] = list(data.get("components", [])) + list(more["components"])
             data["connections"] = merge_connections(
@@ -465,7 +457,7 @@ class WorkerRunner:
     def transitions_pending(self) -> bool:
         """Whether a transition waits for the worker (the main thread should sync)."""
         return bool(self._updates.pending) or any(
-            w._updates.pending for w in self._lanes.values()
+            w._updates.pending for w in self._lanes.workers.values()
         )
 
     @property
@@ -475,24 +467,24 @@ class WorkerRunner:
     def sync(self) -> None:
         """Have the worker apply what waits for it, when no loop runs (main thread)."""
         self.call("sync")
-        for worker in self._lanes.values():
+        for worker in self._lanes.workers.values():
             worker.call("sync")
 
     def activate(self) -> None:
         self.call("activate")
-        for worker in self._lanes.values():
+        for worker in self._lanes.workers.values():
             worker.call("activate")
 
     def deactivate(self) -> None:
         self.call("deactivate")
-        for worker in self._lanes.values():
+        for worker in self._lanes.workers.values():
             worker.call("deactivate")
 
     def describe(self) -> dict[str, Any]:
-        if self._lanes:
-            self._sync_lanes(mirror=False)
+        if self._lanes.workers:
+            self._lanes.sync(self, mirror=False)
         out = dict(self.call("describe"))
-        for worker in self._lanes.values():
+        for worker in self._lanes.workers.values():
             out["components"] = list(out["components"]) + list(worker.components)
         return out
 
@@ -508,7 +500,7 @@ class WorkerRunner:
         # a normal stop reaches the other lanes through the main lane, unless they
         # sleep until /clock moves (which may have stopped): then it wakes them too
         if abort or self.settings.use_sim_time:
-            for worker in self._lanes.values():
+            for worker in self._lanes.workers.values():
                 worker.request_stop(abort=abort)
 
     def request_control(self) -> None:
@@ -517,7 +509,7 @@ class WorkerRunner:
             self._process.ctl[CTL_STOP] = CONTROL
             self._wake_clock()
         if self.settings.use_sim_time:  # lanes asleep until /clock moves
-            for worker in self._lanes.values():
+            for worker in self._lanes.workers.values():
                 worker.request_control()
 
     def _wake_clock(self) -> None:
@@ -534,7 +526,7 @@ class WorkerRunner:
         """Forget a stop request (the next run runs); a stop asked for earlier sticks."""
         if self._process.ctl is not None:
             self._process.ctl[CTL_STOP] = 0
-        for worker in self._lanes.values():
+        for worker in self._lanes.workers.values():
             worker.clear_stop()
 
     @property
@@ -557,8 +549,11 @@ class WorkerRunner:
         """Run the loop in the worker until ``iterations`` ran or :meth:`request_stop`;
         with ``record``, every value of the topics it selects goes into it. With lanes,
         every lane's worker runs it, together."""
-        if any(w.components for w in self._lanes.values()):
-            return self._run_lanes(iterations, trace, record)
+        if any(w.components for w in self._lanes.workers.values()):
+            return self._lanes.run(
+                self, iterations, trace, record, bridge=self.bridge,
+                ros_offset=self._runs.ros_offset(),
+            )
         return self._run_one(iterations, trace, record)
 
     def _run_one(
@@ -612,7 +607,7 @@ class WorkerRunner:
     def shutdown(self) -> list[RtcfError]:
         """Stop and clean up every component in the worker, then let it exit."""
         errors = []
-        for worker in self._lanes.values():
+        for worker in self._lanes.workers.values():
             errors += worker.shutdown()
         return errors + self._shutdown()
 
@@ -629,11 +624,9 @@ class WorkerRunner:
 
     def close(self) -> None:
         """Make sure the worker is gone and every segment is unmapped and removed."""
-        for worker in self._lanes.values():
+        for worker in self._lanes.workers.values():
             worker.close()
-        if self._lane_seg is not None:
-            self._lane_seg.close()
-            self._lane_seg = None
+        self._lanes.close()
         if self.bridge is not None:
             self.bridge.shutdown()
             self.bridge = None
@@ -643,34 +636,33 @@ class WorkerRunner:
         self._process.release()
 
     # -- lanes ----------------------------------------------------------------------
-    def _other_lane(self, component: str) -> str | None:
-        """The lane other than main that runs ``component`` (None: the main lane)."""
-        return self._lane_of.get(component if component.startswith("/") else "/" + component)
-
     def lane_said(self, component: str) -> str:
         """Where a component runs, for a "loaded" line: "" in the main lane, else
         " in lane 'x' (pid, CPU, priority)"."""
-        lane = self._other_lane(component)
-        if lane is None:
-            return ""
-        return f" in lane {lane!r} ({self.lane_placement.get(lane, '')})"
+        return self._lanes.said(component)
+
+    @property
+    def lane_placement(self) -> dict[str, str]:
+        """Lane -> where it runs (pid, CPUs, priority)."""
+        return self._lanes.placement
+
+    @property
+    def say_lanes(self) -> bool:
+        """Whether starting a lane's worker is said at info level (else debug)."""
+        return self._lanes.say
+
+    @say_lanes.setter
+    def say_lanes(self, say: bool) -> None:
+        self._lanes.say = say
+
 
     def _owner_of(self, component: str) -> WorkerRunner:
-        lane = self._other_lane(component)
-        return self._lanes[lane] if lane is not None else self
+        return self._lanes.worker_of(component) or self
 
-    def _lane_worker(self, lane: str) -> WorkerRunner:
-        """The worker of lane ``lane``, started on first use, pinned where the lanes
-        parameter or the default placement says (and said once, in the log)."""
-        worker = self._lanes.get(lane)
-        if worker is not None:
-            return worker
-        names = [*self._lanes, lane]
-        allowed = sorted(os.sched_getaffinity(0))
-        mask, priority, how = lane_placement(self.settings, names, allowed)[lane]
-        settings = dataclasses.replace(
-            self.settings, cpu_affinity_mask=mask, priority=priority, notes=[]
-        )
+
+    def _start_lane(self, lane: str, settings: RunnerSettings) -> WorkerRunner:
+        """A worker for lane ``lane`` (pinned by ``settings``): it publishes through
+        this runner's bridge, follows its /clock, tells its transition listeners."""
         worker = WorkerRunner(
             settings,
             name=self.name,
@@ -684,166 +676,7 @@ class WorkerRunner:
         worker.outputs_bell = self.bridge.doorbell if self.bridge is not None else None
         worker.clock_feed = self.clock_feed
         worker.transition_listeners = self.transition_listeners
-        worker.start()
-        self._lanes[lane] = worker
-        self.lane_placement[lane] = f"pid {worker.pid}, {how}, priority {priority}"
-        said = (f"lane {lane!r} runs in a worker process of its own (pid {worker.pid}) on "
-                f"{how}, priority {priority}")
-        self.log_sink(note(20 if self.say_lanes else 10, said))
-        return worker
-
-    def _running_lanes(self) -> dict[str, WorkerRunner]:
-        return {MAIN_LANE: self, **{n: w for n, w in self._lanes.items() if w.components}}
-
-    def _sync_lanes(self, *, mirror: bool) -> dict[str, dict[str, Any]]:
-        """Tell every lane's worker the other lanes' components (and, to trace them,
-        that the main lane receives every topic); answer what each hands over."""
-        workers = self._running_lanes()
-        facts = {lane: w.call("lane_facts") for lane, w in workers.items()}
-        topics = sorted(
-            {p.topic for f in facts.values() for n in f["nodes"] for p in n.outputs}
-        ) if mirror else []
-        replies = {}
-        for lane, worker in workers.items():
-            nodes = [n for other, f in facts.items() if other != lane for n in f["nodes"]]
-            members = [m for other, f in facts.items() if other != lane for m in f["members"]]
-            replies[lane] = worker.call("set_lanes", lane, nodes, members, topics)
-        return replies
-
-    def _bind_lanes(self, trace: bool) -> None:
-        """Lay the crossing topics out in one segment and hand it to every lane (a new
-        one only when the layout changed: a delayed value survives a pause)."""
-        replies = self._sync_lanes(mirror=trace)
-        sends: dict[str, tuple[str, int]] = {}
-        for reply in replies.values():
-            sends.update(reply["sends"])
-        lanes = replies[MAIN_LANE]["lanes"]
-        missing = [n for n in lanes if n not in replies]
-        if missing:  # a lane the plan knows but no worker runs: a bug
-            raise RtcfError(f"runner {self.name!r}: no worker runs lane(s) {missing}")
-        new = layout(lanes, sends)
-        workers = self._running_lanes()
-        if new != self._lane_layout or self._lane_seg is None:
-            if self._lane_seg is not None:
-                self._lane_seg.close()
-                self._process.segments.remove(self._lane_seg)
-            seg = self._lane_seg = self._process.segment(max(new.size, 4096), "rtcf-lanes")
-            init_words(seg.buf, new)
-            self._lane_layout = new
-            for lane in new.lanes:
-                workers[lane].call("bind_lanes", seg.handle(), new)
-        reset_stop(self._lane_seg.buf)
-
-    def _abort_lanes(self) -> None:
-        """A lane failed or died: the others stop at once, through their safe stops."""
-        if self._lane_seg is not None:
-            abort_all(self._lane_seg.buf)
-        self.request_stop(abort=True)
-
-    def _run_lanes(
-        self, iterations: int | None, trace: str | None, record: RecordSink | None
-    ) -> RunResult:
-        """Run every lane's worker together: the others in threads of their own (each
-        drains its worker), the main lane here; the first failure stops them all. Each
-        lane publishes and records its own topics; the bridge serves them all."""
-        self._bind_lanes(trace is not None)
-        self._lane_runs += 1
-        lane_run = self._lane_runs
-        workers = self._running_lanes()
-        sink = LockedSink(record) if record is not None else None
-        prepared = {name: w.prepare_run(sink) for name, w in workers.items()}
-        share_out(prepared)
-        ros_offset = self._runs.ros_offset()
-        runs: dict[str, Run] = {}
-        failures: list[tuple[float, BaseException]] = []
-        results: dict[str, RunResult] = {}
-        opened = False
-        main: RunResult | None = None
-        try:
-            lay = self._lane_layout
-            every = {n: k[0] for n, k in zip(lay.lanes, lay.kinds, strict=True)} if lay else {}
-            lock_step = [n for n in workers if every.get(n, 1) == 1]
-            span = self._span = LoopSpan(len(lock_step), self.settings.period_ns)
-            for name, w in workers.items():
-                runs[name] = w.open_run(prepared[name], sink, ros_offset)
-                if name == MAIN_LANE:  # iteration_info and a recording's: the loop's rows
-                    span.on_rows, runs[name].aggregate.on_rows = runs[name].aggregate.on_rows, None
-                if name in lock_step:
-                    runs[name].aggregate.on_rows = chain_rows(
-                        runs[name].aggregate.on_rows, span.add
-                    )
-            ports, channels = bridged_channels(runs)
-            if self.bridge is not None and ports:
-                self.bridge.open(ports, channels)
-                opened = True
-
-            def lane(name: str, worker: WorkerRunner) -> None:
-                try:
-                    # (the main lane's count ends every lane after the same iteration)
-                    done = worker.call_run(runs[name], None, None, lane_run)
-                    results[name] = worker.run_result(runs[name], done)
-                except BaseException as exc:
-                    failures.append((time.monotonic(), exc))
-                    self._abort_lanes()
-
-            threads = [
-                threading.Thread(target=lane, args=(n, w), name=f"rtcf-lane-{n}", daemon=True)
-                for n, w in workers.items()
-                if w is not self
-            ]
-            for t in threads:
-                t.start()
-            try:
-                main = self.run_result(runs[MAIN_LANE],
-                                       self.call_run(runs[MAIN_LANE], iterations, trace, lane_run))
-            except BaseException as exc:
-                failures.append((time.monotonic(), exc))
-                self._abort_lanes()
-            for t in threads:
-                while t.is_alive():
-                    t.join(POLL_S)
-                    if main is None:
-                        self.pump()
-        finally:
-            self._span = None
-            if opened and self.bridge is not None:
-                self.bridge.close_run()
-            for name, run in runs.items():
-                workers[name].close_run(run)
-        if failures:
-            raise min(failures, key=lambda f: f[0])[1]
-        assert main is not None
-        results = {MAIN_LANE: dataclasses.replace(main, lanes=dict(main.lanes)), **results}
-        for name, result in results.items():
-            main.lanes[name] = {
-                "every": every.get(name, 1),
-                "iterations": result.iterations,
-                "stopped_by": result.stopped_by,
-                "timing": result.timing,
-                "aggregate": result.aggregate,
-                "realtime": result.realtime,
-                "placement": self.lane_placement.get(name, ""),
-                **result.lanes.get(name, {}),
-            }
-            if name == MAIN_LANE:
-                cpus = (main.realtime or {}).get("cpu_affinity")
-                where = (f"CPU{'s' if len(cpus) > 1 else ''} {', '.join(map(str, cpus))}"
-                         if cpus else "not pinned")
-                main.lanes[name]["placement"] = f"pid {self.pid}, {where} (the runner's)"
-                continue
-            main.faults += result.faults
-            main.safe_stops += result.safe_stops
-            if result.stopped_by == "abort" and main.stopped_by != "abort":
-                main.stopped_by = "abort"
-        main.aggregate, main.timing = whole_loop(main, results, span, lock_step)
-        for name, info in main.lanes.items():
-            for label, counts in info.get("handovers", {}).items():
-                said = ", ".join(f"{n} {k.replace('_', ' ')}" for k, n in counts.items())
-                self.log_sink(note(30, f"lane {name!r}: {label}: {said}"))
-            if info.get("missed"):
-                self.log_sink(note(30, f"lane {name!r}: {info['missed']} releases skipped "
-                                        "after overrunning its window (LET overruns)"))
-        return main
+        return worker.start()
 
 
 class Bridge(Protocol):
