@@ -13,7 +13,7 @@ import dataclasses
 import os
 import threading
 import time
-from collections.abc import Callable, Mapping
+from collections.abc import Callable
 from typing import Any, Generic, Protocol, TypeVar
 
 from .._core._errors import ConfigurationError, RtcfError
@@ -26,7 +26,7 @@ from .._core._timing import LoopSpan, TimingAggregate, TimingSummary
 from ._lanes import LaneLayout, abort_all, init_words, layout, reset_stop
 from ._port_channels import MailboxFanOut, MappedPort
 from ._recording import RecordedTopic, RecordSink, relaid
-from ._runs import Run, chain_rows, note
+from ._runs import Run, RunBridge, RunChannels, chain_rows, note
 from ._shm import Segment
 from ._worker_process import POLL_S
 
@@ -139,6 +139,9 @@ class LaneWorker(Protocol):
     components: dict[str, dict[str, Any]]
 
     @property
+    def introspection(self) -> dict[str, Any]: ...
+
+    @property
     def pid(self) -> int | None: ...
 
     def call(self, command: str, *args: Any) -> Any: ...
@@ -147,30 +150,8 @@ class LaneWorker(Protocol):
 
     def request_stop(self, *, abort: bool = False) -> None: ...
 
-    def prepare_run(self, record: RecordSink | None) -> dict[str, Any]: ...
-
-    def open_run(
-        self, prepared: dict[str, Any], record: RecordSink | None, ros_offset: int
-    ) -> Run: ...
-
-    def call_run(
-        self, run: Run, iterations: int | None, trace: str | None, lane_run: int | None
-    ) -> dict[str, Any]: ...
-
-    def close_run(self, run: Run) -> None: ...
-
-    def run_result(self, run: Run, done: dict[str, Any]) -> RunResult: ...
-
-
-class Bridging(Protocol):
-    """What running the lanes asks of the main lane's bridge: serve every lane's
-    mapped ports for the run."""
-
-    def open(
-        self, ports: list[MappedPort], channels: Mapping[str, Ring | Mailbox | MailboxFanOut]
-    ) -> None: ...
-
-    def close_run(self) -> None: ...
+    @property
+    def runs(self) -> RunChannels: ...
 
 
 W = TypeVar("W", bound=LaneWorker)
@@ -251,6 +232,23 @@ class LaneWorkers(Generic[W]):
     def running(self, main: W) -> dict[str, W]:
         return {MAIN_LANE: main, **{n: w for n, w in self.workers.items() if w.components}}
 
+    def merge_introspection(self, data: dict[str, Any]) -> dict[str, Any]:
+        """The main lane's introspection data with every other lane's components and
+        connections."""
+        for worker in self.workers.values():
+            more = worker.introspection
+            data["components"] = list(data.get("components", [])) + list(more["components"])
+            data["connections"] = merge_connections(
+                data.get("connections", []), more.get("connections", [])
+            )
+        return data
+
+    def merge_described(self, out: dict[str, Any]) -> dict[str, Any]:
+        """The main lane's description with every other lane's components."""
+        for worker in self.workers.values():
+            out["components"] = list(out["components"]) + list(worker.components)
+        return out
+
     def close(self) -> None:
         """Let go of the lanes' segment (their workers are closed)."""
         if self._seg is not None:
@@ -308,7 +306,7 @@ class LaneWorkers(Generic[W]):
         trace: str | None,
         record: RecordSink | None,
         *,
-        bridge: Bridging | None,
+        bridge: RunBridge | None,
         ros_offset: int,
     ) -> RunResult:
         """Run every lane's worker together: the others in threads of their own (each
@@ -319,7 +317,7 @@ class LaneWorkers(Generic[W]):
         lane_run = self._runs
         workers = self.running(main_worker)
         sink = LockedSink(record) if record is not None else None
-        prepared = {name: w.prepare_run(sink) for name, w in workers.items()}
+        prepared = {name: w.runs.prepare(sink) for name, w in workers.items()}
         share_out(prepared)
         runs: dict[str, Run] = {}
         failures: list[tuple[float, BaseException]] = []
@@ -332,7 +330,7 @@ class LaneWorkers(Generic[W]):
             lock_step = [n for n in workers if every.get(n, 1) == 1]
             span = self.span = LoopSpan(len(lock_step), self.settings.period_ns)
             for name, w in workers.items():
-                runs[name] = w.open_run(prepared[name], sink, ros_offset)
+                runs[name] = w.runs.open(prepared[name], sink, ros_offset)
                 if name == MAIN_LANE:  # iteration_info and a recording's: the loop's rows
                     span.on_rows, runs[name].aggregate.on_rows = runs[name].aggregate.on_rows, None
                 if name in lock_step:
@@ -347,8 +345,8 @@ class LaneWorkers(Generic[W]):
             def lane(name: str, worker: W) -> None:
                 try:
                     # (the main lane's count ends every lane after the same iteration)
-                    done = worker.call_run(runs[name], None, None, lane_run)
-                    results[name] = worker.run_result(runs[name], done)
+                    done = worker.runs.call_run(runs[name], None, None, lane_run)
+                    results[name] = worker.runs.result(runs[name], done)
                 except BaseException as exc:
                     failures.append((time.monotonic(), exc))
                     self.abort(main_worker)
@@ -361,9 +359,9 @@ class LaneWorkers(Generic[W]):
             for t in threads:
                 t.start()
             try:
-                main = main_worker.run_result(
+                main = main_worker.runs.result(
                     runs[MAIN_LANE],
-                    main_worker.call_run(runs[MAIN_LANE], iterations, trace, lane_run),
+                    main_worker.runs.call_run(runs[MAIN_LANE], iterations, trace, lane_run),
                 )
             except BaseException as exc:
                 failures.append((time.monotonic(), exc))
@@ -378,7 +376,7 @@ class LaneWorkers(Generic[W]):
             if opened and bridge is not None:
                 bridge.close_run()
             for name, run in runs.items():
-                workers[name].close_run(run)
+                workers[name].runs.close(run)
         if failures:
             raise min(failures, key=lambda f: f[0])[1]
         assert main is not None

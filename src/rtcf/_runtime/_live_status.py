@@ -1,12 +1,18 @@
-"""What a runner's status line shows while its loop runs, and what ticks it.
+"""What a runner's status line shows while its loop runs, and when it is said.
 
 :class:`LiveStatus` is the line (iterations, overruns, jitter, faults, who may change
 the runner); the CLI prints it and the bridges publish it on /diagnostics.
+:class:`LiveReport` says it while a command waits (every STATUS_EVERY_S to the
+status line, every DIAGNOSTICS_EVERY_S to the bridge) and counts the loop's starts.
 """
 
 from __future__ import annotations
 
+import time
+from collections.abc import Callable
 from dataclasses import dataclass
+
+from .._core._timing import TimingAggregate
 
 STATUS_EVERY_S = 0.5
 DIAGNOSTICS_EVERY_S = 1.0
@@ -29,3 +35,56 @@ class LiveStatus:
     # how often the loop started: a load or unload stops it and starts it again on its
     # time grid; a refused request must not (docs/security.md)
     starts: int = 0
+
+
+class LiveReport:
+    """The status line and diagnostics of one runner while its loop runs, and how
+    often the loop started (LiveStatus.starts)."""
+
+    def __init__(self, on_status: Callable[[LiveStatus], None] | None) -> None:
+        self.on_status = on_status
+        self.starts = 0
+        self.started_at: float | None = None  # when the loop last started
+        self._last_status = self._last_diagnostics = 0.0  # of the command waited for
+
+    def begin(self) -> None:
+        """A command begins: the first line comes one interval after it."""
+        self._last_status = self._last_diagnostics = time.monotonic()
+
+    def started(self) -> None:
+        self.starts += 1
+        self.started_at = time.monotonic()
+
+    def poll(
+        self,
+        status: Callable[[], LiveStatus],
+        diagnostics: Callable[[LiveStatus], None] | None,
+    ) -> None:
+        """A polling interval of a command while the loop runs: say what is due."""
+        if self.on_status is not None:
+            now = time.monotonic()
+            if now - self._last_status >= STATUS_EVERY_S:
+                self._last_status = now
+                self.on_status(status())
+        if diagnostics is not None:
+            now = time.monotonic()
+            if now - self._last_diagnostics >= DIAGNOSTICS_EVERY_S:
+                self._last_diagnostics = now
+                diagnostics(status())
+
+    def status(
+        self, aggregate: TimingAggregate, *, log_records_dropped: int, faults: int, access: str
+    ) -> LiveStatus:
+        started = self.started_at if self.started_at is not None else time.monotonic()
+        return LiveStatus(
+            iterations=aggregate.rows,
+            overruns=aggregate.overruns,
+            jitter_p999_us=aggregate.jitter.quantile(0.999) / 1e3,
+            calc_p999_us=aggregate.calc.quantile(0.999) / 1e3,
+            calc_max_us=aggregate.calc.quantile(1.0) / 1e3,
+            log_records_dropped=log_records_dropped,
+            elapsed_s=time.monotonic() - started,
+            faults=faults,
+            access=access,
+            starts=self.starts,
+        )

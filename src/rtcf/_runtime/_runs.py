@@ -11,9 +11,9 @@ from __future__ import annotations
 
 import dataclasses
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass
-from typing import Any
+from typing import Any, Protocol
 
 from .._core._faults import Fault, SafeStopOutcome
 from .._core._lane_names import MAIN_LANE
@@ -28,7 +28,7 @@ from .._core._timing import (
     ring_capacity,
     row_size,
 )
-from ._port_channels import OUTPUT_RING_RECORDS, MappedPort, segment_size
+from ._port_channels import OUTPUT_RING_RECORDS, MailboxFanOut, MappedPort, segment_size
 from ._recording import RecordedTopic, RecordingDrain, RecordSink
 from ._recording import segment_size as recording_segment_size
 from ._shm import Segment
@@ -84,10 +84,25 @@ def counts_only(timing: TimingSummary) -> TimingSummary:
     return TimingSummary(iterations=timing.iterations, samples=0, overruns=timing.overruns)
 
 
+class RunBridge(Protocol):
+    """What a run asks of a middleware bridge: serve the mapped ports' channels, and
+    take the timing rows (iteration_info)."""
+
+    def open(
+        self, ports: list[MappedPort], channels: Mapping[str, Ring | Mailbox | MailboxFanOut]
+    ) -> None: ...
+
+    def close_run(self) -> None: ...
+
+    def iteration_info(self, rows: Any) -> None: ...
+
+
 class RunChannels:
     """The runs of one worker, one at a time: the segments of the run under way and
     what drains them. ``call`` is the runner's control channel (its status line ticks
-    while the run waits)."""
+    while the run waits); ``bridge``, the runner's (the main lane's), serves the run's
+    mapped ports; ``bridged``: whether a bridge serves them (a lane's worker's are
+    served by the main lane's)."""
 
     def __init__(
         self,
@@ -98,6 +113,8 @@ class RunChannels:
         lane: str,
         simulated: bool,
         log_sink: Callable[[LogRecord], None],
+        bridge: RunBridge | None,
+        bridged: bool,
     ) -> None:
         self._process = process
         self.call = call
@@ -105,6 +122,8 @@ class RunChannels:
         self.lane = lane
         self.simulated = simulated
         self.log_sink = log_sink
+        self.bridge = bridge
+        self.bridged = bridged
         # while a run is under way: its timing ring, schedule and aggregate, and the
         # recording's drain and sink
         self._timing: tuple[Ring, list[str], TimingAggregate] | None = None
@@ -138,19 +157,28 @@ class RunChannels:
             return 0
         return time.time_ns() - time.monotonic_ns()
 
-    def prepare(self, bridged: bool, record: RecordSink | None) -> dict[str, Any]:
+    def run(
+        self, iterations: int | None, trace: str | None, record: RecordSink | None
+    ) -> RunResult:
+        """One run of this worker alone, its mapped ports served by the bridge."""
+        run = self.open(self.prepare(record), record, self.ros_offset())
+        try:
+            if self.bridge is not None and run.ports:
+                self.bridge.open(run.ports, run.channels)
+            done = self.call_run(run, iterations, trace, None)
+        finally:
+            if self.bridge is not None and run.ports:
+                self.bridge.close_run()
+            self.close(run)
+        return self.result(run, done)
+
+    def prepare(self, record: RecordSink | None) -> dict[str, Any]:
         """Compile the worker's schedule: its mapped ports and recorded topics."""
         return self.call(
-            "prepare", bridged, record.pattern if record is not None else None
+            "prepare", self.bridged, record.pattern if record is not None else None
         )
 
-    def open(
-        self,
-        prepared: dict[str, Any],
-        record: RecordSink | None,
-        ros_offset: int,
-        iteration_info: Callable[[Any], None] | None,
-    ) -> Run:
+    def open(self, prepared: dict[str, Any], record: RecordSink | None, ros_offset: int) -> Run:
         """A run's segments: timing, the mapped ports' channels, the recording's rings."""
         schedule: list[str] = prepared["schedule"]
         ports: list[MappedPort] = prepared["ports"]
@@ -167,8 +195,8 @@ class RunChannels:
         )
         run.ring = Ring.create(run.seg.buf, capacity, row_size(len(schedule)))
         run.port_seg, run.channels = self._port_channels(ports)
-        if iteration_info is not None and self.settings.iteration_info:
-            run.aggregate.on_rows = iteration_info
+        if self.bridge is not None and self.settings.iteration_info:
+            run.aggregate.on_rows = self.bridge.iteration_info
         # wall minus monotonic, once per run, for the loop and the recording alike: every
         # recorded channel, the timing rows too, is stamped with the same offset
         if record is not None and hasattr(record, "timing_rows") and self.lane == MAIN_LANE:
@@ -226,7 +254,7 @@ class RunChannels:
                                         "replaced by a newer one before an iteration read "
                                         "them (a mapped input holds the latest value)"))
 
-    def result(self, run: Run, done: dict[str, Any], log_records_dropped: int) -> RunResult:
+    def result(self, run: Run, done: dict[str, Any]) -> RunResult:
         aggregate = run.aggregate
         timing = aggregate.summary(done["rows"], done["overruns"])
         return RunResult(
@@ -234,7 +262,7 @@ class RunChannels:
             stopped_by=done["stopped_by"],
             timing=timing if not done["simulated"] else counts_only(timing),
             order=done["order"],
-            log_records_dropped=log_records_dropped,
+            log_records_dropped=self._process.log_records_dropped,
             simulated=done["simulated"],
             realtime=done["realtime"],
             aggregate=aggregate,

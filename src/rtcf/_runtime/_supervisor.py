@@ -16,12 +16,10 @@ import dataclasses
 import subprocess
 import sys
 import threading
-import time
 from collections.abc import Callable, Mapping
 from typing import Any, Protocol
 
 from .._core._errors import RtcfError
-from .._core._executor import ABORT, CONTROL, STOP
 from .._core._lane_names import MAIN_LANE
 from .._core._lanes import lane_of
 from .._core._lifecycle import (
@@ -29,7 +27,7 @@ from .._core._lifecycle import (
     TransitionOutcome,
     refused,
 )
-from .._core._log import LogLevel, LogRecord, PythonLoggingSink, drain_channel
+from .._core._log import LogLevel, LogRecord, PythonLoggingSink
 from .._core._params import ParameterStore
 from .._core._rings import Mailbox, Ring
 from .._core._runner import ComponentSpec, RunResult
@@ -45,16 +43,14 @@ from .._core._tunables import (
 from ._admission import Admission
 from ._doorbell import ClockFeed, Doorbell
 from ._heap import fill_numpy_cache
-from ._lane_workers import LaneWorkers, merge_connections
-from ._live_status import DIAGNOSTICS_EVERY_S, STATUS_EVERY_S, LiveStatus
+from ._lane_workers import LaneWorkers
+from ._live_status import LiveReport, LiveStatus
 from ._loaded import LoadedComponents
 from ._port_channels import MailboxFanOut, MappedPort
 from ._recording import RecordSink
-from ._runs import Run, RunChannels, note
+from ._runs import RunChannels, note
 from ._updates import WorkerUpdates
 from ._worker import (
-    CTL_FAULTS,
-    CTL_STOP,
     error_from_dict,
 )
 from ._worker_process import WorkerProcess, keep_off_cpus
@@ -77,6 +73,8 @@ class WorkerRunner:
         on_started: Callable[[dict[str, Any]], None] | None = None,
         bridge: Bridge | None = None,
         lane: str = MAIN_LANE,
+        outputs_bell: Doorbell | None = None,
+        clock_feed: ClockFeed | None = None,
     ) -> None:
         self.settings = settings
         self.name = name
@@ -86,15 +84,13 @@ class WorkerRunner:
         console = log_sink or PythonLoggingSink()
         self.log_sink = console if bridge is None else _both(console, bridge.log)
         self.log_capacity = log_capacity
-        self.on_status = on_status
         self.on_started = on_started
         self.bridge = bridge
         self._process = WorkerProcess(
             settings, name, pump=self.pump, on_poll=self._on_poll, on_event=self._on_event,
             kill=self.kill, label=self._lane_label,
         )
-        self._started_at: float | None = None  # when the loop last started
-        self._last_status = self._last_diagnostics = 0.0  # of the command waited for
+        self._report = LiveReport(on_status)
         # one lock for what the bridge's threads read and change: the loaded
         # components' entries, the updates for the worker, the transitions waited for
         self._update_lock = threading.Lock()
@@ -102,9 +98,10 @@ class WorkerRunner:
         self.components = self._loaded.components  # as tools see them (one dict, kept)
         self._updates = WorkerUpdates(self._loaded)
         self.admission = Admission(settings, name, self._loaded)
-        self._runs = RunChannels(
+        self.runs = RunChannels(
             self._process, self.call, settings, lane=lane, simulated=simulated,
-            log_sink=self.log_sink,
+            log_sink=self.log_sink, bridge=bridge,
+            bridged=bridge is not None or outputs_bell is not None,
         )
         # wakes a main thread that waits for requests while no loop runs (RequestQueue)
         self.wake_idle: Callable[[], None] | None = None
@@ -112,15 +109,14 @@ class WorkerRunner:
         # lanes: this worker's lane; the main lane's runner starts a worker per other
         # lane, routes each component's verbs to its lane, and runs them together
         self.lane = lane
-        self.loop_starts = 0  # LiveStatus.starts
         self._lanes: LaneWorkers[WorkerRunner] = LaneWorkers(
             settings, name, self.log_sink, start=self._start_lane,
             segment=self._process.segment, close_segment=self._process.close_segment,
         )
         # a lane's worker rings the main lane's bridge after pushing outputs to publish
         # and follows the /clock the main lane's bridge receives (use_sim_time)
-        self.clock_feed: ClockFeed | None = None
-        self.outputs_bell: Doorbell | None = None
+        self.clock_feed = clock_feed
+        self.outputs_bell = outputs_bell
 
     # -- process ---------------------------------------------------------------
     def start(self) -> WorkerRunner:
@@ -169,11 +165,6 @@ class WorkerRunner:
         return self._process.process
 
     @property
-    def exit_reported(self) -> bool:
-        """Whether a death or a hang was said already (as a WorkerDied)."""
-        return self._process.exit_reported
-
-    @property
     def pid(self) -> int | None:
         return self._process.pid
 
@@ -186,21 +177,19 @@ class WorkerRunner:
     # -- the control channel -----------------------------------------------------
     def call(self, command: str, *args: Any) -> Any:
         """Send a command and wait for its answer, draining the rings meanwhile."""
-        self._last_status = self._last_diagnostics = time.monotonic()
+        self._report.begin()
         return self._process.call(command, *args)
 
     def _on_poll(self) -> None:
         """Every polling interval of a command: the status line and diagnostics."""
-        if self.on_status is not None and self._runs.running:
-            now = time.monotonic()
-            if now - self._last_status >= STATUS_EVERY_S:
-                self._last_status = now
-                self.on_status(self.live_status())
-        if self.bridge is not None and self._runs.running:
-            now = time.monotonic()
-            if now - self._last_diagnostics >= DIAGNOSTICS_EVERY_S:
-                self._last_diagnostics = now
-                self.bridge.diagnostics(self.name, self.live_status(), self._live_aggregate())
+        if self.runs.running:
+            diagnostics = self._diagnostics if self.bridge is not None else None
+            self._report.poll(self.live_status, diagnostics)
+
+    def _diagnostics(self, status: LiveStatus) -> None:
+        assert self.bridge is not None
+        self.bridge.diagnostics(self.name, status, self._live_aggregate())
+
 
     def _on_event(self, event: str, payload: Any) -> None:
         if event == "parameter_set":
@@ -232,37 +221,30 @@ class WorkerRunner:
     # -- draining ------------------------------------------------------------------
     def pump(self) -> None:
         """Drain log records and timing rows (non-real-time work, called often)."""
-        if self._process.log_ring is not None:
-            drain_channel(self._process.log_ring, self.log_sink)
-        self._runs.drain()
+        self._process.drain_log(self.log_sink)
+        self.runs.drain()
         self._updates.pump()
+
 
     @property
     def log_records_dropped(self) -> int:
-        ring = self._process.log_ring
-        return ring.dropped if ring is not None else 0
+        return self._process.log_records_dropped
+
 
     def _live_aggregate(self) -> TimingAggregate:
         """The run's timing so far: with lanes the loop's as a whole."""
-        aggregate = self._runs.aggregate or TimingAggregate()
+        aggregate = self.runs.aggregate or TimingAggregate()
         span = self._lanes.span
         return span.snapshot(aggregate) if span is not None else aggregate
 
     def live_status(self) -> LiveStatus:
-        aggregate = self._live_aggregate()
-        started = self._started_at if self._started_at is not None else time.monotonic()
-        return LiveStatus(
-            iterations=aggregate.rows,
-            overruns=aggregate.overruns,
-            jitter_p999_us=aggregate.jitter.quantile(0.999) / 1e3,
-            calc_p999_us=aggregate.calc.quantile(0.999) / 1e3,
-            calc_max_us=aggregate.calc.quantile(1.0) / 1e3,
+        return self._report.status(
+            self._live_aggregate(),
             log_records_dropped=self.log_records_dropped,
-            elapsed_s=time.monotonic() - started,
-            faults=self._process.ctl[CTL_FAULTS] if self._process.ctl is not None else 0,
+            faults=self._process.faults,
             access=self.admission.access,
-            starts=self.loop_starts,
         )
+
 
     # -- the runner's verbs ------------------------------------------------------
     def admits(
@@ -373,13 +355,7 @@ class WorkerRunner:
                 pass  # the introspection's "problem" says it
         data = dict(self.call("introspect"))
         data["runner"] = self.name
-        for worker in self._lanes.workers.values():
-            more = worker.introspection
-            data["components"] = list(data.get("components", [])) + list(more["components"])
-            data["connections"] = merge_connections(
-                data.get("connections", []), more.get("connections", [])
-            )
-        self._loaded.publish(data)
+        self._loaded.publish(self._lanes.merge_introspection(data))
         return data
 
     def introspect(self) -> dict[str, Any]:
@@ -462,7 +438,7 @@ class WorkerRunner:
 
     @property
     def loop_running(self) -> bool:
-        return self._runs.running
+        return self.runs.running
 
     def sync(self) -> None:
         """Have the worker apply what waits for it, when no loop runs (main thread)."""
@@ -484,60 +460,40 @@ class WorkerRunner:
         if self._lanes.workers:
             self._lanes.sync(self, mirror=False)
         out = dict(self.call("describe"))
-        for worker in self._lanes.workers.values():
-            out["components"] = list(out["components"]) + list(worker.components)
-        return out
+        return self._lanes.merge_described(out)
 
     def request_stop(self, *, abort: bool = False) -> None:
         """End the loop after the current iteration (safe from a signal handler).
 
         ``abort``: not a normal stop (a signal): the components' safe_stop hooks run.
         """
-        if self._process.ctl is not None:
-            if abort or self._process.ctl[CTL_STOP] != ABORT:
-                self._process.ctl[CTL_STOP] = ABORT if abort else STOP
-            self._wake_clock()
+        self._process.request_stop(abort)
         # a normal stop reaches the other lanes through the main lane, unless they
         # sleep until /clock moves (which may have stopped): then it wakes them too
         if abort or self.settings.use_sim_time:
             for worker in self._lanes.workers.values():
                 worker.request_stop(abort=abort)
 
+
     def request_control(self) -> None:
         """End the loop after the iteration so a request can be served (it resumes after)."""
-        if self._process.ctl is not None and self._process.ctl[CTL_STOP] not in (STOP, ABORT):
-            self._process.ctl[CTL_STOP] = CONTROL
-            self._wake_clock()
+        self._process.request_control()
         if self.settings.use_sim_time:  # lanes asleep until /clock moves
             for worker in self._lanes.workers.values():
                 worker.request_control()
 
-    def _wake_clock(self) -> None:
-        """A loop waiting for /clock time sees the stop word at once."""
-        bell = self._process.clock_bell
-        if bell is not None and bell.fd >= 0:
-            bell.ring()
 
     @property
     def stop_reason(self) -> int:
-        return self._process.ctl[CTL_STOP] if self._process.ctl is not None else 0
+        return self._process.stop_reason
+
 
     def clear_stop(self) -> None:
         """Forget a stop request (the next run runs); a stop asked for earlier sticks."""
-        if self._process.ctl is not None:
-            self._process.ctl[CTL_STOP] = 0
+        self._process.clear_stop()
         for worker in self._lanes.workers.values():
             worker.clear_stop()
 
-    @property
-    def stop_requested(self) -> bool:
-        return self._process.ctl is not None and self._process.ctl[CTL_STOP] != 0
-
-    @property
-    def bridged(self) -> bool:
-        """Whether a middleware publishes this worker's mapped outputs (and feeds its
-        inputs): its own bridge, or the main lane's for a lane's worker."""
-        return self.bridge is not None or self.outputs_bell is not None
 
     def run(
         self,
@@ -552,53 +508,13 @@ class WorkerRunner:
         if any(w.components for w in self._lanes.workers.values()):
             return self._lanes.run(
                 self, iterations, trace, record, bridge=self.bridge,
-                ros_offset=self._runs.ros_offset(),
+                ros_offset=self.runs.ros_offset(),
             )
-        return self._run_one(iterations, trace, record)
-
-    def _run_one(
-        self,
-        iterations: int | None,
-        trace: str | None,
-        record: RecordSink | None,
-    ) -> RunResult:
-        run = self.open_run(self.prepare_run(record), record, self._runs.ros_offset())
-        try:
-            if self.bridge is not None and run.ports:
-                self.bridge.open(run.ports, run.channels)
-            done = self.call_run(run, iterations, trace, None)
-        finally:
-            if self.bridge is not None and run.ports:
-                self.bridge.close_run()
-            self.close_run(run)
-        return self.run_result(run, done)
-
-    # a run of this worker (the main lane runs the other lanes' workers' with its own)
-    def prepare_run(self, record: RecordSink | None) -> dict[str, Any]:
-        """Compile the worker's schedule: its mapped ports and recorded topics."""
-        return self._runs.prepare(self.bridged, record)
-
-    def open_run(
-        self, prepared: dict[str, Any], record: RecordSink | None, ros_offset: int
-    ) -> Run:
-        info = self.bridge.iteration_info if self.bridge is not None else None
-        return self._runs.open(prepared, record, ros_offset, info)
-
-    def call_run(
-        self, run: Run, iterations: int | None, trace: str | None, lane_run: int | None
-    ) -> dict[str, Any]:
-        return self._runs.call_run(run, iterations, trace, lane_run)
-
-    def close_run(self, run: Run) -> None:
-        self._runs.close(run)
-
-    def run_result(self, run: Run, done: dict[str, Any]) -> RunResult:
-        return self._runs.result(run, done, self.log_records_dropped)
+        return self.runs.run(iterations, trace, record)
 
     def _on_started(self, realtime: dict[str, Any]) -> None:
-        self.loop_starts += 1
+        self._report.started()
         self.admission.loop_started(self.lane)
-        self._started_at = time.monotonic()
         if self.settings.cpu_affinity_mask:
             keep_off_cpus(realtime.get("cpu_affinity") or [])
         if self.on_started is not None:
@@ -672,9 +588,9 @@ class WorkerRunner:
             log_sink=self.log_sink,
             log_capacity=self.log_capacity,
             lane=lane,
+            outputs_bell=self.bridge.doorbell if self.bridge is not None else None,
+            clock_feed=self.clock_feed,
         )
-        worker.outputs_bell = self.bridge.doorbell if self.bridge is not None else None
-        worker.clock_feed = self.clock_feed
         worker.transition_listeners = self.transition_listeners
         return worker.start()
 

@@ -23,7 +23,8 @@ from multiprocessing.connection import Connection
 from typing import Any
 
 from .._core._errors import RtcfError
-from .._core._log import LOG_RECORD_SIZE
+from .._core._executor import ABORT, CONTROL, STOP
+from .._core._log import LOG_RECORD_SIZE, LogRecord, drain_channel
 from .._core._rings import Mailbox, Ring
 from .._core._settings import RunnerSettings
 from .._core._timing import FIXED_COLUMNS, TimingAggregate
@@ -31,8 +32,10 @@ from ._doorbell import Doorbell, RungMailbox
 from ._shm import Segment, outgoing, send_segments
 from ._worker import (
     CLOCK_MAILBOX_OFFSET,
+    CTL_FAULTS,
     CTL_HEARTBEAT,
     CTL_RUNNING,
+    CTL_STOP,
     WORKER_MODULE,
     error_from_dict,
 )
@@ -221,6 +224,46 @@ class WorkerProcess:
         if self.conn is None:
             raise RtcfError("the worker process is not running; call start() first")
         return self.conn
+
+    # -- the control words -----------------------------------------------------------
+    def request_stop(self, abort: bool) -> None:
+        """Set the stop word (an abort is never turned back into a stop)."""
+        if self.ctl is not None:
+            if abort or self.ctl[CTL_STOP] != ABORT:
+                self.ctl[CTL_STOP] = ABORT if abort else STOP
+            self._wake_clock()
+
+    def request_control(self) -> None:
+        if self.ctl is not None and self.ctl[CTL_STOP] not in (STOP, ABORT):
+            self.ctl[CTL_STOP] = CONTROL
+            self._wake_clock()
+
+    def _wake_clock(self) -> None:
+        """A loop waiting for /clock time sees the stop word at once."""
+        bell = self.clock_bell
+        if bell is not None and bell.fd >= 0:
+            bell.ring()
+
+    def clear_stop(self) -> None:
+        if self.ctl is not None:
+            self.ctl[CTL_STOP] = 0
+
+    @property
+    def stop_reason(self) -> int:
+        return self.ctl[CTL_STOP] if self.ctl is not None else 0
+
+    @property
+    def faults(self) -> int:
+        """Component failures a policy contained (on_error deactivate/restart)."""
+        return self.ctl[CTL_FAULTS] if self.ctl is not None else 0
+
+    def drain_log(self, sink: Callable[[LogRecord], None]) -> None:
+        if self.log_ring is not None:
+            drain_channel(self.log_ring, sink)
+
+    @property
+    def log_records_dropped(self) -> int:
+        return self.log_ring.dropped if self.log_ring is not None else 0
 
     # -- death ------------------------------------------------------------------
     def _hung(self, component: str, hook: str) -> WorkerDied:
