@@ -23,22 +23,15 @@ from .._core._errors import RtcfError
 from .._core._lane_names import MAIN_LANE
 from .._core._lanes import lane_of
 from .._core._lifecycle import (
-    UNKNOWN,
     TransitionOutcome,
-    refused,
 )
-from .._core._log import LogLevel, LogRecord, PythonLoggingSink
+from .._core._log import LogRecord, PythonLoggingSink
 from .._core._params import ParameterStore
 from .._core._rings import Mailbox, Ring
 from .._core._runner import ComponentSpec, RunResult
 from .._core._settings import RunnerSettings
 from .._core._timing import (
     TimingAggregate,
-)
-from .._core._tunables import (
-    LOG_LEVEL,
-    PARAMETER,
-    TunableSpec,
 )
 from ._admission import Admission
 from ._doorbell import ClockFeed, Doorbell
@@ -50,9 +43,6 @@ from ._port_channels import MailboxFanOut, MappedPort
 from ._recording import RecordSink
 from ._runs import RunChannels, note
 from ._updates import WorkerUpdates
-from ._worker import (
-    error_from_dict,
-)
 from ._worker_process import WorkerProcess, keep_off_cpus
 
 
@@ -144,17 +134,8 @@ class WorkerRunner:
         bell = bell_of.fd if bell_of is not None else -1
         process.spawn(bell)
         self.call(
-            "hello",
-            list(sys.path),
-            process.control,
-            process.log,
-            updates,
-            self.settings,
-            self.parameters.as_dict(),
-            self.name,
-            self.simulated,
-            self.log_level,
-            bell,
+            "hello", list(sys.path), process.control, process.log, updates, self.settings,
+            self.parameters.as_dict(), self.name, self.simulated, self.log_level, bell,
             process.clock_bell_fd,
         )
         self.refresh_introspection()
@@ -180,6 +161,12 @@ class WorkerRunner:
         self._report.begin()
         return self._process.call(command, *args)
 
+    def _call_all(self, command: str, *args: Any) -> None:
+        """A command for this worker, then for every other lane's."""
+        self.call(command, *args)
+        for worker in self._lanes.workers.values():
+            worker.call(command, *args)
+
     def _on_poll(self) -> None:
         """Every polling interval of a command: the status line and diagnostics."""
         if self.runs.running:
@@ -189,7 +176,6 @@ class WorkerRunner:
     def _diagnostics(self, status: LiveStatus) -> None:
         assert self.bridge is not None
         self.bridge.diagnostics(self.name, status, self._live_aggregate())
-
 
     def _on_event(self, event: str, payload: Any) -> None:
         if event == "parameter_set":
@@ -225,11 +211,9 @@ class WorkerRunner:
         self.runs.drain()
         self._updates.pump()
 
-
     @property
     def log_records_dropped(self) -> int:
         return self._process.log_records_dropped
-
 
     def _live_aggregate(self) -> TimingAggregate:
         """The run's timing so far: with lanes the loop's as a whole."""
@@ -244,7 +228,6 @@ class WorkerRunner:
             faults=self._process.faults,
             access=self.admission.access,
         )
-
 
     # -- the runner's verbs ------------------------------------------------------
     def admits(
@@ -275,7 +258,6 @@ class WorkerRunner:
     def transition_listeners(self, listeners: list[Callable[[str, TransitionOutcome], None]]
                              ) -> None:
         self._updates.listeners = listeners
-
 
     def load(self, spec: ComponentSpec, *, launcher: str = "", refresh: bool = True) -> str:
         """Load a component into its lane's worker. ``refresh=False``: leave the
@@ -320,9 +302,7 @@ class WorkerRunner:
         configure): a middleware's parameter server, fetched before a load."""
         for name, value in values.items():
             self.parameters.set(name, value)
-        self.call("set_parameters", values)
-        for worker in self._lanes.workers.values():
-            worker.call("set_parameters", values)
+        self._call_all("set_parameters", values)
 
     def unload(self, name: str) -> None:
         self.admission.refuse_if_locked("unloads")
@@ -338,11 +318,7 @@ class WorkerRunner:
                 self.bridge.component_unloaded(full)
             return
         self.call("unload", full)
-        with self._update_lock:
-            self.components.pop(full, None)
-            dropped = self._updates.forget(full)
-        for number in dropped:
-            self._updates.answer(number, refused(UNKNOWN, f"component {full!r} was unloaded"))
+        self._updates.unloaded(full)
         self.refresh_introspection()
         if self.bridge is not None:
             self.bridge.component_unloaded(full)
@@ -362,25 +338,14 @@ class WorkerRunner:
         """The last introspection data, with the current tunable values and log levels."""
         return self._loaded.introspect()
 
-
     # -- tuning while running (any thread) ---------------------------------------
-    def tunable(self, component: str, name: str) -> TunableSpec:
-        """The declaration of a loaded component's tunable parameter."""
-        return self._loaded.tunable(component, name)
-
-
     def set_parameter(self, component: str, name: str, value: Any) -> Any:
         """Validate a new value here, then hand it to the worker for the next iteration."""
         self.admission.refuse_if_locked("changes of tunable parameters", ("all",))
         owner = self._owner_of(component)
         if owner is not self:
             return owner.set_parameter(component, name, value)
-        spec = self.tunable(component, name)
-        value = spec.validate(value)
-        with self._update_lock:
-            self._loaded.set_value(component, name, value)
-            self._updates.post((PARAMETER, spec.component, name), value)
-        return value
+        return self._updates.set_parameter(component, name, value)
 
     def set_log_level(self, component: str, level: int | str) -> None:
         """Filter the component's records in the worker from the next iteration on."""
@@ -388,11 +353,7 @@ class WorkerRunner:
         if owner is not self:
             owner.set_log_level(component, level)
             return
-        info = self._loaded.find(component)
-        number = LogLevel[level.upper()] if isinstance(level, str) else int(level)
-        with self._update_lock:
-            info["log_level"] = number
-            self._updates.post((LOG_LEVEL, str(info["name"]), ""), number)
+        self._updates.set_log_level(component, level)
 
     # -- lifecycle (any thread) ------------------------------------------------------
     def lifecycle_state(self, component: str) -> str:
@@ -442,19 +403,13 @@ class WorkerRunner:
 
     def sync(self) -> None:
         """Have the worker apply what waits for it, when no loop runs (main thread)."""
-        self.call("sync")
-        for worker in self._lanes.workers.values():
-            worker.call("sync")
+        self._call_all("sync")
 
     def activate(self) -> None:
-        self.call("activate")
-        for worker in self._lanes.workers.values():
-            worker.call("activate")
+        self._call_all("activate")
 
     def deactivate(self) -> None:
-        self.call("deactivate")
-        for worker in self._lanes.workers.values():
-            worker.call("deactivate")
+        self._call_all("deactivate")
 
     def describe(self) -> dict[str, Any]:
         if self._lanes.workers:
@@ -474,7 +429,6 @@ class WorkerRunner:
             for worker in self._lanes.workers.values():
                 worker.request_stop(abort=abort)
 
-
     def request_control(self) -> None:
         """End the loop after the iteration so a request can be served (it resumes after)."""
         self._process.request_control()
@@ -482,18 +436,15 @@ class WorkerRunner:
             for worker in self._lanes.workers.values():
                 worker.request_control()
 
-
     @property
     def stop_reason(self) -> int:
         return self._process.stop_reason
-
 
     def clear_stop(self) -> None:
         """Forget a stop request (the next run runs); a stop asked for earlier sticks."""
         self._process.clear_stop()
         for worker in self._lanes.workers.values():
             worker.clear_stop()
-
 
     def run(
         self,
@@ -525,18 +476,7 @@ class WorkerRunner:
         errors = []
         for worker in self._lanes.workers.values():
             errors += worker.shutdown()
-        return errors + self._shutdown()
-
-    def _shutdown(self) -> list[RtcfError]:
-        proc = self._process.process
-        if self._process.conn is None or proc is None or proc.poll() is not None:
-            return []
-        errors = [error_from_dict(d) for d in self.call("shutdown")]
-        try:
-            proc.wait(timeout=10.0)
-        except subprocess.TimeoutExpired:
-            pass
-        return errors
+        return errors + self._process.shutdown()
 
     def close(self) -> None:
         """Make sure the worker is gone and every segment is unmapped and removed."""
@@ -571,10 +511,8 @@ class WorkerRunner:
     def say_lanes(self, say: bool) -> None:
         self._lanes.say = say
 
-
     def _owner_of(self, component: str) -> WorkerRunner:
         return self._lanes.worker_of(component) or self
-
 
     def _start_lane(self, lane: str, settings: RunnerSettings) -> WorkerRunner:
         """A worker for lane ``lane`` (pinned by ``settings``): it publishes through

@@ -25,8 +25,16 @@ from .._core._lifecycle import (
     decode_outcome,
     refused,
 )
+from .._core._log import LogLevel
 from .._core._rings import Ring
-from .._core._tunables import LIFECYCLE, UPDATE_RECORD_SIZE, UPDATE_RING_RECORDS, encode_update
+from .._core._tunables import (
+    LIFECYCLE,
+    LOG_LEVEL,
+    PARAMETER,
+    UPDATE_RECORD_SIZE,
+    UPDATE_RING_RECORDS,
+    encode_update,
+)
 from ._loaded import LoadedComponents
 from ._shm import Segment
 
@@ -85,11 +93,32 @@ class WorkerUpdates:
                 return  # full: pump() tries again; the worker takes them between iterations
             del self._backlog[key]
 
-    def forget(self, component: str) -> list[int]:
-        """An unloaded component: drop its updates; answer the transitions it waits
-        for (their numbers) after the lock (under the lock)."""
-        self._backlog = {k: v for k, v in self._backlog.items() if k[1] != component}
-        return [n for n, p in self.pending.items() if p.component == component]
+    def set_parameter(self, component: str, name: str, value: Any) -> Any:
+        """Validate a new value here, then hand it to the worker for the next iteration."""
+        spec = self.loaded.tunable(component, name)
+        value = spec.validate(value)
+        with self.lock:
+            self.loaded.set_value(component, name, value)
+            self.post((PARAMETER, spec.component, name), value)
+        return value
+
+    def set_log_level(self, component: str, level: int | str) -> None:
+        """Filter the component's records in the worker from the next iteration on."""
+        info = self.loaded.find(component)
+        number = LogLevel[level.upper()] if isinstance(level, str) else int(level)
+        with self.lock:
+            info["log_level"] = number
+            self.post((LOG_LEVEL, str(info["name"]), ""), number)
+
+    def unloaded(self, component: str) -> None:
+        """The worker unloaded ``component``: its entry and its updates go, and the
+        transitions that wait for it are refused."""
+        with self.lock:
+            self.loaded.components.pop(component, None)
+            self._backlog = {k: v for k, v in self._backlog.items() if k[1] != component}
+            dropped = [n for n, p in self.pending.items() if p.component == component]
+        for number in dropped:
+            self.answer(number, refused(UNKNOWN, f"component {component!r} was unloaded"))
 
     # -- lifecycle ----------------------------------------------------------------------
     def change_state(

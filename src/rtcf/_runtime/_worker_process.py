@@ -326,6 +326,19 @@ class WorkerProcess:
         )
 
     # -- the end ------------------------------------------------------------------
+    def shutdown(self) -> list[RtcfError]:
+        """Stop and clean up every component in the worker, then let it exit; the
+        errors of their stop() and cleanup()."""
+        proc = self.process
+        if self.conn is None or proc is None or proc.poll() is not None:
+            return []
+        errors = [error_from_dict(d) for d in self.call("shutdown")]
+        try:
+            proc.wait(timeout=10.0)
+        except subprocess.TimeoutExpired:
+            pass
+        return errors
+
     def end(self, request_stop: Callable[[], None]) -> None:
         """End of file on its control channel: the worker cleans up its components and
         leaves (a loop still running is stopped first, by ``request_stop``); wait for it."""
