@@ -1,13 +1,20 @@
-"""The supervisor's handle on a worker process: everything that is not real-time.
+"""The supervisor's runner: everything that is not real-time, with the same verbs as Runner.
 
-:class:`WorkerRunner` starts ``python -m rtcf._runtime._worker``, sends it commands over a
-Unix socket between runs, and while the loop runs it drains the shared-memory
-rings (log records to Python logging, timing rows into histograms) and reports
-progress. It creates every shared-memory segment: anonymous memory (memfd) that
-it hands to the worker as a file descriptor over the control socket, so there is
-no name that could be left behind whatever way either process ends (SIGKILL
-included). A worker that dies is noticed within a polling interval and reported
-as an error.
+:class:`WorkerRunner` is what the command line and the ROS runners hold: it loads,
+tunes, runs and stops components whose loop runs in a worker process, and it is a
+thin front to the collaborators that hold each part of that:
+
+- :mod:`._worker_process`: the worker process (start, the control channel, death,
+  its segments, the stop words);
+- :mod:`._admission`: who may make requests (the lock, allowed_modules);
+- :mod:`._loaded`: what is loaded, as tools see it (introspection);
+- :mod:`._updates`: tunable values, log levels and lifecycle transitions for the
+  worker, and the transitions' outcomes;
+- :mod:`._runs`: one run of a worker (its timing, port channels and recording);
+- :mod:`._lane_workers`: the other lanes' workers, and running every lane together;
+- :mod:`._live_status`: the status line and diagnostics while the loop runs.
+
+:class:`Bridge` is what a middleware bridge (ROS 2, ROS 1) implements for it.
 """
 
 from __future__ import annotations
@@ -22,17 +29,13 @@ from typing import Any, Protocol
 from .._core._errors import RtcfError
 from .._core._lane_names import MAIN_LANE
 from .._core._lanes import lane_of
-from .._core._lifecycle import (
-    TransitionOutcome,
-)
+from .._core._lifecycle import TransitionOutcome
 from .._core._log import LogRecord, PythonLoggingSink
 from .._core._params import ParameterStore
 from .._core._rings import Mailbox, Ring
 from .._core._runner import ComponentSpec, RunResult
 from .._core._settings import RunnerSettings
-from .._core._timing import (
-    TimingAggregate,
-)
+from .._core._timing import TimingAggregate
 from ._admission import Admission
 from ._doorbell import ClockFeed, Doorbell
 from ._heap import fill_numpy_cache
@@ -47,7 +50,12 @@ from ._worker_process import WorkerProcess, keep_off_cpus
 
 
 class WorkerRunner:
-    """A runner whose loop runs in a worker process; the same verbs as :class:`Runner`."""
+    """A runner whose loop runs in a worker process; the same verbs as :class:`Runner`.
+
+    The main lane's runner also starts a WorkerRunner per other lane (``lane``), and
+    routes each component's requests to its lane's; a lane's worker publishes through
+    the main lane's bridge (``outputs_bell``) and follows its /clock (``clock_feed``).
+    """
 
     def __init__(
         self,
@@ -276,21 +284,17 @@ class WorkerRunner:
             with self._update_lock:
                 info = self.components[full] = worker.components[full]
                 self._lanes.lane_of[full] = lane
-            if refresh:
-                self.refresh_introspection()
-            if self.bridge is not None:
-                self.bridge.component_loaded(info, self)
-            return full
-        if spec.cls is not None:
-            # the worker imports the class by name, as an rt_launcher would ask for it
-            spec = dataclasses.replace(
-                spec, cls=None, module=spec.cls.__module__, class_name=spec.cls.__qualname__
-            )
-        info = dict(self.call("load", spec))
-        info["launcher"] = launcher
-        full = str(info["name"])
-        with self._update_lock:
-            self.components[full] = info
+        else:
+            if spec.cls is not None:
+                # the worker imports the class by name, as an rt_launcher would ask for it
+                spec = dataclasses.replace(
+                    spec, cls=None, module=spec.cls.__module__, class_name=spec.cls.__qualname__
+                )
+            info = dict(self.call("load", spec))
+            info["launcher"] = launcher
+            full = str(info["name"])
+            with self._update_lock:
+                self.components[full] = info
         if refresh:
             self.refresh_introspection()
         if self.bridge is not None:
@@ -313,12 +317,9 @@ class WorkerRunner:
             with self._update_lock:
                 self.components.pop(full, None)
                 self._lanes.lane_of.pop(full, None)
-            self.refresh_introspection()
-            if self.bridge is not None:
-                self.bridge.component_unloaded(full)
-            return
-        self.call("unload", full)
-        self._updates.unloaded(full)
+        else:
+            self.call("unload", full)
+            self._updates.unloaded(full)
         self.refresh_introspection()
         if self.bridge is not None:
             self.bridge.component_unloaded(full)
