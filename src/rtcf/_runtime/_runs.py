@@ -58,6 +58,7 @@ class Run:
 
 
 def note(level: int, text: str) -> LogRecord:
+    """A line of the supervisor's own in the log (as "rt_runner")."""
     return LogRecord(level, "rt_runner", text)
 
 

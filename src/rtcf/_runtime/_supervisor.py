@@ -238,13 +238,8 @@ class WorkerRunner:
         )
 
     # -- the runner's verbs ------------------------------------------------------
-    def admits(
-        self,
-        what: str,
-        module: str | None = None,
-        component: str | None = None,
-        class_name: str | None = None,
-    ) -> None:
+    def admits(self, what: str, module: str | None = None, component: str | None = None,
+               class_name: str | None = None) -> None:
         """RequestRefused if the runner would refuse the request (:meth:`Admission.admits`)."""
         self.admission.admits(what, module, component, class_name)
 
