@@ -71,6 +71,7 @@ from ._log import LogLevel, LogRecord, LogRing, PythonLoggingSink, RecordSink
 from ._loop_state import LoopState
 from ._message_types import type_name
 from ._names import Resolver, join, normalize_namespace, validate_name
+from ._notices import Notices
 from ._params import ParameterStore
 from ._ports import InputPort, OutputPort, Slot
 from ._rates import Rate, plan_table, spread
@@ -179,9 +180,12 @@ class Runner:
         self.parameters = parameters if parameters is not None else ParameterStore()
         self.state = LoopState(self.settings.frequency)
         # in a worker the records go to shared memory and the supervisor drains them
-        self.log_ring: RecordSink = log_ring if log_ring is not None else LogRing(log_capacity)
-        self.log_sink = log_sink or PythonLoggingSink()
-        self._log_emit = log_emit or self._emit_now
+        self._notices = Notices(
+            self.state,
+            log_ring if log_ring is not None else LogRing(log_capacity),
+            log_sink or PythonLoggingSink(),
+            log_emit,
+        )
         # a worker's flag is a shared-memory word the supervisor sets and clears
         self._owns_stop_flag = stop_flag is None
         self.stop_flag = stop_flag if stop_flag is not None else StopFlag()
@@ -214,9 +218,6 @@ class Runner:
         self.faults: list[Fault] = []  # contained failures of this runner's life
         self.on_fault: Callable[[Fault], None] | None = None  # a worker counts them
         self.safe_stops: list[SafeStopOutcome] = []  # of the last safe stop
-        # told (component, hook) before a hook outside the loop runs, ("", "") after: a
-        # worker passes it on, so that its supervisor can name a hook that hangs
-        self.hook_observer: Callable[[str, str], None] | None = None
 
     # -- loading ------------------------------------------------------------
     @property
@@ -283,23 +284,23 @@ class Runner:
             namespace=namespace,
             resolver=resolver,
             store=self.parameters,
-            ring=self.log_ring,
+            ring=self._notices.ring,
             state=self.state,
-            emit=self._log_emit,
+            emit=self._notices.emit,
             every=every,
         )
         component.log.set_level(self.log_level if spec.log_level is None else spec.log_level)
         try:
             component.__init__()  # type: ignore[misc]
-            self._observe(full, "configure")
+            self._notices.observe(full, "configure")
             ok = component.configure()
         except RtcfError as exc:
-            self.drain_logs()
+            self._notices.drain()
             raise fail(f"configure() failed: {exc}", exc) from exc
         except Exception as exc:
-            self.drain_logs()
+            self._notices.drain()
             raise fail(f"configure() raised {type(exc).__name__}: {exc}", exc) from exc
-        self.drain_logs()
+        self._notices.drain()
         if ok is False:
             raise fail("configure() returned False")
         component._rtcf_configured = True
@@ -466,8 +467,7 @@ class Runner:
             finally:
                 self.state.running = running
         level = LogLevel.INFO if outcome.ok else LogLevel.ERROR
-        s = self.state
-        self._log_emit(level, full, "lifecycle: " + outcome.describe(), s.iteration, s.time_ns)
+        self._notices.log(level, full, "lifecycle: " + outcome.describe())
         if outcome.result != REFUSED:
             self._announce(full, outcome)
         return outcome
@@ -521,7 +521,7 @@ class Runner:
     def _hook(self, entry: _Loaded, hook: str) -> tuple[str, str]:
         """Run a lifecycle hook: success, failure (returned False) or error (raised)."""
         try:
-            self._observe(entry.spec.full_name, hook)
+            self._notices.observe(entry.spec.full_name, hook)
             ok = getattr(entry.component, hook)()
         except Exception as exc:
             return ERROR, f"{hook}() raised {type(exc).__name__}: {exc}"
@@ -941,23 +941,23 @@ class Runner:
             if entry.state != INACTIVE or not entry.autostart or name in standing_by:
                 continue
             try:
-                self._observe(name, "start")
+                self._notices.observe(name, "start")
                 ok = entry.component.start()
             except Exception as exc:
-                self.drain_logs()
+                self._notices.drain()
                 raise ComponentError(
                     f"component {name!r}: start() raised {type(exc).__name__}: {exc}",
                     component=name,
                 ) from exc
             if ok is False:
-                self.drain_logs()
+                self._notices.drain()
                 raise ComponentError(f"component {name!r}: start() returned False", component=name)
             entry.state = ACTIVE
             started = True
             self._announce(name, TransitionOutcome(ACTIVATE, INACTIVE, ACTIVE, SUCCESS))
         if started:
             self._replan()
-        self.drain_logs()
+        self._notices.drain()
 
     # -- running ------------------------------------------------------------
     def run(
@@ -1029,7 +1029,7 @@ class Runner:
                     if iterations is not None and ran >= iterations:
                         break
         except WatchdogTripped as trip:
-            self.drain_logs()
+            self._notices.drain()
             self.safe_stop(trip.describe())
             lane = f", lane {self.lane!r}" if self.lane not in (None, "", MAIN_LANE) else ""
             raise LoopError(f"runner {self.name!r}{lane}: {trip.describe()}") from None
@@ -1039,7 +1039,7 @@ class Runner:
             executor.feeders = ()
             executor.ros_offset_ns = None
             writer.release()
-        self.drain_logs()
+        self._notices.drain()
         stopped_by = "count" if iterations is not None and ran >= iterations else "stop"
         if self.stop_flag.cell[0] == ABORT:
             stopped_by = "abort"
@@ -1054,21 +1054,17 @@ class Runner:
             stopped_by=stopped_by,
             timing=timing,
             order=list(self.graph.order),
-            log_records_dropped=self.log_ring.dropped,
+            log_records_dropped=self._notices.ring.dropped,
             simulated=bool(getattr(self.clock, "simulated", False)),
             aggregate=aggregate,
             faults=self.faults[faults_before:],
             safe_stops=list(self.safe_stops),
         )
 
-    def _observe(self, component: str, hook: str) -> None:
-        if self.hook_observer is not None:
-            self.hook_observer(component, hook)
-
     # -- faults ---------------------------------------------------------------
     def _contain(self, failure: UpdateFailure) -> None:
         """Apply the failed component's policy; raise ComponentError if the loop ends."""
-        self.drain_logs()
+        self._notices.drain()
         name = self._schedule[failure.index]
         entry = self._loaded.get(name)
         if entry is None:  # a lane's handover, not a component: a bug or bad data
@@ -1167,8 +1163,7 @@ class Runner:
 
     def _record(self, fault: Fault) -> None:
         self.faults.append(fault)
-        s = self.state
-        self._log_emit(LogLevel.ERROR, fault.component, fault.describe(), s.iteration, s.time_ns)
+        self._notices.log(LogLevel.ERROR, fault.component, fault.describe())
         if self.on_fault is not None:
             self.on_fault(fault)
 
@@ -1187,10 +1182,7 @@ class Runner:
             n for n in reversed(order) if n in self._loaded and self._loaded[n].state == ACTIVE
         ]
         if reason:
-            s = self.state
-            self._log_emit(
-                LogLevel.WARNING, self.name, f"safe stop: {reason}", s.iteration, s.time_ns
-            )
+            self._notices.log(LogLevel.WARNING, self.name, f"safe stop: {reason}")
         return self._run_safe_stops(names)
 
     def _run_safe_stops(self, names: Sequence[str]) -> list[SafeStopOutcome]:
@@ -1203,7 +1195,7 @@ class Runner:
                 if not overrides(component, "safe_stop"):
                     continue
                 try:
-                    self._observe(name, "safe_stop")
+                    self._notices.observe(name, "safe_stop")
                     ok = component.safe_stop()
                     outcome = SafeStopOutcome(name, ok is not False, "returned False")
                 except BaseException as exc:  # each runs on its own, whatever it raised
@@ -1213,13 +1205,12 @@ class Runner:
                 if outcome.ok:
                     outcome.detail = ""
                 outcomes.append(outcome)
-                s = self.state
                 level = LogLevel.INFO if outcome.ok else LogLevel.ERROR
-                self._log_emit(level, name, outcome.describe(), s.iteration, s.time_ns)
+                self._notices.log(level, name, outcome.describe())
         finally:
             self.state.running = running
         self.safe_stops.extend(outcomes)
-        self.drain_logs()
+        self._notices.drain()
         return outcomes
 
     def _idle_hook(
@@ -1229,8 +1220,8 @@ class Runner:
         aggregate: TimingAggregate | None,
         timing_ring: Ring,
     ) -> Callable[[], object] | None:
-        ring = self.log_ring if isinstance(self.log_ring, LogRing) else None
-        sink = self.log_sink
+        ring = self._notices.ring if isinstance(self._notices.ring, LogRing) else None
+        sink = self._notices.sink
         names = self._schedule
         half = timing_ring.capacity // 2
         if not drain and aggregate is None:
@@ -1296,13 +1287,25 @@ class Runner:
         return list(self._schedule)
 
     def drain_logs(self) -> int:
-        ring = self.log_ring
-        return ring.drain(self.log_sink) if isinstance(ring, LogRing) else 0
+        return self._notices.drain()
 
-    def _emit_now(self, level: int, logger: str, text: str, iteration: int, time_ns: int) -> None:
-        """Non-real-time logging in this process: after what the ring holds, in order."""
-        self.drain_logs()
-        self.log_sink(LogRecord(level, logger, text, iteration, time_ns))
+    @property
+    def log_ring(self) -> RecordSink:
+        return self._notices.ring
+
+    @property
+    def log_sink(self) -> Callable[[LogRecord], None]:
+        return self._notices.sink
+
+    @property
+    def hook_observer(self) -> Callable[[str, str], None] | None:
+        """Told (component, hook) before a hook outside the loop runs: a worker passes it
+        on, so that its supervisor can name a hook that hangs."""
+        return self._notices.observer
+
+    @hook_observer.setter
+    def hook_observer(self, observer: Callable[[str, str], None] | None) -> None:
+        self._notices.observer = observer
 
     def shutdown(self) -> list[ComponentError]:
         """Stop and clean up every component, last in the order first.
@@ -1325,7 +1328,7 @@ class Runner:
             hooks = _TEARDOWN.get(entry.state, ())
             for hook in hooks:
                 try:
-                    self._observe(name, hook)
+                    self._notices.observe(name, hook)
                     getattr(entry.component, hook)()
                 except Exception as exc:
                     err = ComponentError(
@@ -1335,7 +1338,7 @@ class Runner:
                     err.__cause__ = exc
                     errors.append(err)
             entry.state = FINALIZED
-        self.drain_logs()
+        self._notices.drain()
         return errors
 
 
