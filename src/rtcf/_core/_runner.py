@@ -8,14 +8,14 @@ their slots; nothing is looked up by name while the loop runs.
 
 from __future__ import annotations
 
-import re
-from collections.abc import Callable, Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
 from ._clock import Clock, MonotonicClock
-from ._component import Component, _attach, overrides
-from ._errors import ComponentError, ConfigurationError, Location, LoopError, RtcfError
+from ._component import Component, overrides
+from ._components import Components, ComponentSpec, Loaded
+from ._errors import ComponentError, ConfigurationError, LoopError, RtcfError
 from ._executor import ABORT, Executor, StopFlag, UpdateFailure
 from ._faults import DEACTIVATE as ON_ERROR_DEACTIVATE
 from ._faults import (
@@ -28,8 +28,8 @@ from ._faults import (
     downstream,
 )
 from ._faults import RESTART as ON_ERROR_RESTART
-from ._graph import Graph, GraphNode, PortInfo, build_graph
-from ._lane_names import MAIN_LANE, validate_lane_name
+from ._graph import Graph, GraphNode, build_graph
+from ._lane_names import MAIN_LANE
 from ._lanes import (
     LET_OUT,
     SEND,
@@ -66,67 +66,17 @@ from ._lifecycle import (
     refused,
     resolve_transition,
 )
-from ._loader import load_component_class
 from ._log import LogLevel, LogRecord, LogRing, PythonLoggingSink, RecordSink
 from ._loop_state import LoopState
-from ._message_types import type_name
-from ._names import Resolver, join, normalize_namespace, validate_name
+from ._names import join, normalize_namespace
 from ._notices import Notices
 from ._params import ParameterStore
 from ._ports import InputPort, OutputPort, Slot
-from ._rates import Rate, plan_table, spread
+from ._rates import plan_table, spread
 from ._rings import Ring
 from ._settings import RunnerSettings
 from ._timing import TimingAggregate, TimingSummary, TimingWriter, local_ring
 from ._tunables import LIFECYCLE, LOG_LEVEL, PARAMETER
-
-
-@dataclass
-class ComponentSpec:
-    """A request to load one component (what an rt_launcher sends to its runner).
-
-    Give the class either directly (``cls``) or as ``module`` and ``class_name``.
-    ``params`` are private parameters (``gain`` means ``~gain``), added to the
-    runner's parameter tree on load. ``topics_ignore_for_graph`` is a full-match
-    regex; matching incoming connections do not constrain the order. ``log_level``
-    is the component's start level (before ``configure``); None: the runner's.
-    ``policy`` says what the loop does when its ``update`` raises (``on_error``).
-    """
-
-    name: str
-    cls: type[Component] | None = None
-    module: str = ""
-    class_name: str = ""
-    namespace: str = "/"
-    remaps: list[tuple[str, str]] | Mapping[str, str] = field(default_factory=list)
-    params: Mapping[str, Any] = field(default_factory=dict)
-    is_first: bool = False
-    topics_ignore_for_graph: str = ""
-    location: Location | None = None
-    log_level: int | None = None
-    policy: FailurePolicy = field(default_factory=FailurePolicy)
-    rate: Rate = field(default_factory=Rate)  # how often it runs (rate, every, phase)
-    lane: str = ""  # the worker process (lane) it runs in; "" or "main": the runner's own
-
-    @property
-    def full_name(self) -> str:
-        return join(normalize_namespace(self.namespace), self.name)
-
-    @property
-    def type_name(self) -> str:
-        if self.cls is not None:
-            return f"{self.cls.__module__}.{self.cls.__qualname__}"
-        return f"{self.module}.{self.class_name}"
-
-
-@dataclass
-class _Loaded:
-    spec: ComponentSpec
-    component: Component
-    ignore: re.Pattern[str] | None
-    state: int = INACTIVE  # lifecycle (_lifecycle): loaded means configured
-    autostart: bool = True  # activated when the loop next starts (until a transition)
-    restarts: int = 0  # times on_error restart brought it back
 
 
 @dataclass
@@ -191,7 +141,9 @@ class Runner:
         self.stop_flag = stop_flag if stop_flag is not None else StopFlag()
         self.log_level = LogLevel[log_level.upper()] if isinstance(log_level, str) else log_level
         self._timing_capacity = timing_capacity
-        self._loaded: dict[str, _Loaded] = {}
+        self._components = Components(
+            self.settings, self.parameters, self.state, self._notices, self.log_level
+        )
         self._triggered = False
         self._graph: Graph | None = None
         self._executor: Executor | None = None
@@ -222,106 +174,17 @@ class Runner:
     # -- loading ------------------------------------------------------------
     @property
     def components(self) -> dict[str, Component]:
-        return {n: entry.component for n, entry in self._loaded.items()}
+        return self._components.by_name()
 
     def load(self, spec: ComponentSpec) -> Component:
         """Construct and configure a component; the loop re-resolves before it next runs."""
-        file = spec.location.file if spec.location else None
-        line = spec.location.line if spec.location else None
-        full = spec.full_name
-
-        def fail(msg: str, cause: BaseException | None = None) -> ComponentError:
-            err = ComponentError(f"component {full!r}: {msg}", component=full, file=file, line=line)
-            err.__cause__ = cause
-            return err
-
-        problem = validate_name(spec.name, what="component name")
-        if problem or "/" in spec.name:
-            raise fail(problem or "a component name must not contain '/'; use the namespace")
-        problem = validate_lane_name(spec.lane) if spec.lane else None
-        if problem:
-            raise fail(f"lane {problem}")
-        if self.lane is not None and lane_of(spec.lane) != self.lane:
-            raise fail(f"is for lane {lane_of(spec.lane)!r}, but this runs lane {self.lane!r}")
-        if full in self._loaded:
-            raise fail("is already loaded; give each component a unique name")
-        s = self.settings
-        if s.mode == "wait_for_components" and len(self._loaded) >= s.num_components_expected:
-            raise fail(
-                f"is one more than the {s.num_components_expected} components this runner "
-                "expects (num_components_expected); raise that number or load fewer"
-            )
-        try:
-            ignore = (
-                re.compile(spec.topics_ignore_for_graph) if spec.topics_ignore_for_graph else None
-            )
-        except re.error as exc:
-            raise fail(
-                f"topics_ignore_for_graph {spec.topics_ignore_for_graph!r} is not a valid "
-                f"regular expression: {exc}"
-            ) from None
-        try:  # a rate that does not divide the frequency: say so before configure runs
-            every, _ = spec.rate.divider(self.settings.frequency, full)
-        except ConfigurationError as exc:
-            raise ComponentError(exc.message, component=full, file=file, line=line) from None
-        cls = spec.cls
-        if cls is None:
-            try:
-                cls = load_component_class(spec.module, spec.class_name, component=full)
-            except ComponentError as exc:
-                raise ComponentError(
-                    exc.message, component=full, file=file, line=line
-                ) from exc.__cause__
-        namespace = normalize_namespace(spec.namespace)
-        resolver = Resolver(namespace, spec.name, spec.remaps)
-        for key, value in spec.params.items():
-            self.parameters.set(resolver.private(key), value)
-
-        component = cls.__new__(cls)
-        _attach(
-            component,
-            name=spec.name,
-            namespace=namespace,
-            resolver=resolver,
-            store=self.parameters,
-            ring=self._notices.ring,
-            state=self.state,
-            emit=self._notices.emit,
-            every=every,
-        )
-        component.log.set_level(self.log_level if spec.log_level is None else spec.log_level)
-        try:
-            component.__init__()  # type: ignore[misc]
-            self._notices.observe(full, "configure")
-            ok = component.configure()
-        except RtcfError as exc:
-            self._notices.drain()
-            raise fail(f"configure() failed: {exc}", exc) from exc
-        except Exception as exc:
-            self._notices.drain()
-            raise fail(f"configure() raised {type(exc).__name__}: {exc}", exc) from exc
-        self._notices.drain()
-        if ok is False:
-            raise fail("configure() returned False")
-        component._rtcf_configured = True
-        component.params.sealed = True
-        self._loaded[full] = _Loaded(spec, component, ignore)
+        component = self._components.load(spec, self.lane)
         self._invalidate()
         return component
 
-    def _entry(self, name: str) -> _Loaded:
-        full = normalize_namespace(name) if name.startswith("/") else join("/", name)
-        entry = self._loaded.get(full)
-        if entry is None:
-            known = ", ".join(self._loaded) or "none"
-            raise ComponentError(f"component {full!r} is not loaded (loaded: {known})")
-        return entry
-
     def unload(self, name: str) -> None:
         """Stop and clean up a component and take it out of the loop."""
-        entry = self._entry(name)
-        full = entry.spec.full_name
-        del self._loaded[full]
+        entry = self._components.remove(name)
         self._invalidate()
         errors = self._teardown([entry])
         if errors:
@@ -330,44 +193,14 @@ class Runner:
     # -- tuning ---------------------------------------------------------------
     def describe_component(self, name: str) -> dict[str, Any]:
         """A loaded component as tools show it: type, ports, parameters, tunables."""
-        entry = self._entry(name)
-        comp = entry.component
-        full = entry.spec.full_name
-        private = self.parameters.get(comp._rtcf_resolver.private(), {})
-        return {
-            "name": full,
-            "type": entry.spec.type_name,
-            "launcher": "",
-            "inputs": [_port_info(p) for p in comp._rtcf_inputs.values()],
-            "outputs": [_port_info(p) for p in comp._rtcf_outputs.values()],
-            "parameters": private if isinstance(private, dict) else {},
-            "tunables": [
-                {**t.spec.to_dict(), "value": t.value} for t in comp.params.declared.values()
-            ],
-            "log_level": comp.log.level,
-            "every": comp.every,  # runs every this many iterations (rate, every)
-            "lifecycle": STATE_LABELS[entry.state],
-        }
+        return self._components.describe(name)
 
     def introspect(self) -> dict[str, Any]:
         """What the original's introspection scripts show: components with their ports,
         connections with their publishers and subscribers and whether they reach the
         middleware, and the execution order."""
-        maps = self.settings.maps_to_ros
-        connections: dict[str, dict[str, Any]] = {}
-        for full, entry in self._loaded.items():
-            comp = entry.component
-            roles = ((comp._rtcf_outputs, "publishers"), (comp._rtcf_inputs, "subscribers"))
-            for table, role in roles:
-                for port in table.values():
-                    c = connections.setdefault(port.topic, {
-                        "topic": port.topic,
-                        "type": type_name(port.type),
-                        "publishers": [],
-                        "subscribers": [],
-                        "ros": maps(port.topic),
-                    })
-                    c[role].append(full)
+        components = self._components
+        connections = components.connections(self.settings.maps_to_ros)
         try:
             order, problem = list(self.graph.order), ""
         except RtcfError as exc:
@@ -376,8 +209,8 @@ class Runner:
             "runner": self.name,
             "frequency": self.settings.frequency,
             "mode": self.settings.mode,
-            "components": [self.describe_component(n) for n in self._loaded],
-            "connections": [connections[t] for t in sorted(connections)],
+            "components": [components.describe(n) for n in components.entries],
+            "connections": connections,
             "order": order,
             "problem": problem,
         }
@@ -389,21 +222,11 @@ class Runner:
         ``on_iteration``) or between runs. A worker gets its changes through
         :func:`apply_update`, at the start of an iteration.
         """
-        entry = self._entry(component)
-        tunable = entry.component.params.declared.get(name)
-        if tunable is None:
-            known = ", ".join(entry.component.params.declared) or "none"
-            raise ConfigurationError(
-                f"component {entry.spec.full_name!r} has no tunable parameter {name!r} "
-                f"(it declares: {known})"
-            )
-        value = tunable.spec.validate(value)
-        tunable._apply(value)
-        return value
+        return self._components.set_parameter(component, name, value)
 
     def set_log_level(self, component: str, level: int | str) -> None:
         """Records below ``level`` are dropped where they are made (never queued)."""
-        self._entry(component).component.log.set_level(level)
+        self._components.set_log_level(component, level)
 
     def apply_update(
         self, kind: int, component: str, name: str, value: Any
@@ -414,7 +237,8 @@ class Runner:
         """
         if kind == LIFECYCLE:
             return self.change_state(component, name)
-        entry = self._loaded.get(component)
+        # (applied here rather than by a call into Components: it runs in the loop)
+        entry = self._components.entries.get(component)
         if entry is None:  # unloaded after the supervisor sent it: nothing to change
             return None
         if kind == PARAMETER:
@@ -429,7 +253,7 @@ class Runner:
     def lifecycle_state(self, name: str) -> str:
         """A loaded component's lifecycle state: ``active``, ``inactive``, ``unconfigured``
         or ``finalized`` (a ROS 2 managed node's labels)."""
-        return STATE_LABELS[self._entry(name).state]
+        return STATE_LABELS[self._components.entry(name).state]
 
     def change_state(self, name: str, transition: int | str) -> TransitionOutcome:
         """Run one component's lifecycle transition; the others go on as they were.
@@ -443,9 +267,9 @@ class Runner:
         at once. The hooks it runs may use ``self.log.nonrt``.
         """
         full = normalize_namespace(name) if name.startswith("/") else join("/", name)
-        entry = self._loaded.get(full)
+        entry = self._components.entries.get(full)
         if entry is None:
-            known = ", ".join(self._loaded) or "none"
+            known = ", ".join(self._components.entries) or "none"
             return refused(UNKNOWN, f"component {full!r} is not loaded (loaded: {known})")
         if isinstance(transition, str) and transition.isdigit():
             transition = int(transition)
@@ -476,7 +300,7 @@ class Runner:
         for listener in self.transition_listeners:
             listener(name, outcome)
 
-    def _transition(self, entry: _Loaded, tid: int) -> TransitionOutcome:
+    def _transition(self, entry: Loaded, tid: int) -> TransitionOutcome:
         _, start, via = REQUESTS[tid]
         entry.autostart = False  # from now on it stays where it was put
         entry.state = via
@@ -518,7 +342,7 @@ class Runner:
             self._replan()
         return TransitionOutcome(tid, start, end, result, error_result, reason)
 
-    def _hook(self, entry: _Loaded, hook: str) -> tuple[str, str]:
+    def _hook(self, entry: Loaded, hook: str) -> tuple[str, str]:
         """Run a lifecycle hook: success, failure (returned False) or error (raised)."""
         try:
             self._notices.observe(entry.spec.full_name, hook)
@@ -529,7 +353,7 @@ class Runner:
             return FAILURE, f"{hook}() returned False"
         return SUCCESS, ""
 
-    def _reconfigure(self, entry: _Loaded) -> tuple[str, str]:
+    def _reconfigure(self, entry: Loaded) -> tuple[str, str]:
         """configure() again: it must declare the ports and tunables of the first time."""
         comp = entry.component
         params = comp.params
@@ -576,7 +400,7 @@ class Runner:
 
     def not_ready_reason(self) -> str | None:
         # (with lanes, the components of every lane count)
-        s, n = self.settings, len(self._loaded) + len(self._foreign_members)
+        s, n = self.settings, len(self._components.entries) + len(self._foreign_members)
         if n == 0:
             return "no component is loaded"
         if s.mode == "wait_for_components" and n < s.num_components_expected:
@@ -600,58 +424,18 @@ class Runner:
 
     def fallbacks(self) -> dict[str, str]:
         """Loaded fallback components and the component each stands in for (on_error)."""
-        return {
-            e.spec.policy.fallback: name
-            for name, e in self._loaded.items()
-            if e.spec.policy.fallback in self._loaded and e.spec.policy.fallback != name
-        }
+        return self._components.fallbacks()
 
     def graph_nodes(self) -> list[GraphNode]:
         """A node per component; a fallback's inputs count as its primary's (it runs in
         the primary's place in the order, and writes the primary's outputs)."""
-        fallbacks = self.fallbacks()
-        extra: dict[str, list[PortInfo]] = {}
-        for fb, primary in fallbacks.items():
-            comp = self._loaded[fb].component
-            extra[primary] = [_info(primary, p) for p in comp._rtcf_inputs.values()]
-        nodes = []
-        for full, entry in self._loaded.items():
-            if full in fallbacks:
-                continue
-            comp = entry.component
-            nodes.append(
-                GraphNode(
-                    name=full,
-                    inputs=[_info(full, p) for p in comp._rtcf_inputs.values()]
-                    + extra.get(full, []),
-                    outputs=[_info(full, p) for p in comp._rtcf_outputs.values()],
-                    is_first=entry.spec.is_first,
-                    ignore_pattern=entry.ignore,
-                    label=type(comp).__name__,
-                    lane=lane_of(entry.spec.lane),
-                )
-            )
-        return nodes
+        return self._components.graph_nodes()
 
     # -- lanes ----------------------------------------------------------------------
     def members(self) -> list[Member]:
         """What the other lanes must know of this runner's components (with
         :meth:`graph_nodes`): lane, rate, cost, whether the loop calls them."""
-        frequency = self.settings.frequency
-        out = []
-        for full, entry in self._loaded.items():
-            every, phase = entry.spec.rate.divider(frequency, full)
-            out.append(
-                Member(
-                    full,
-                    lane_of(entry.spec.lane),
-                    every,
-                    phase,
-                    entry.spec.rate.cost,
-                    overrides(entry.component, "update"),
-                )
-            )
-        return out
+        return self._components.members()
 
     def set_foreign(
         self,
@@ -721,9 +505,13 @@ class Runner:
             lanes = {m.name: m.lane for m in members}
             for fb, primary in self.fallbacks().items():  # right after what it stands in for
                 graph.order.insert(graph.order.index(primary) + 1, fb)
-            for name, entry in self._loaded.items():
+            for name, entry in self._components.entries.items():
                 fb = entry.spec.policy.fallback
-                if fb and fb not in self._loaded and lanes.get(fb, lanes[name]) != lanes[name]:
+                if (
+                    fb
+                    and fb not in self._components.entries
+                    and lanes.get(fb, lanes[name]) != lanes[name]
+                ):
                     raise ConfigurationError(
                         f"component {name!r}: its fallback {fb!r} is in lane {lanes[fb]!r}, "
                         f"not in its own lane {lanes[name]!r}: a fallback writes the outputs "
@@ -779,7 +567,7 @@ class Runner:
         fallbacks = self.fallbacks()
         outputs: dict[str, OutputPort[Any]] = {
             p.topic: p
-            for n, e in self._loaded.items()
+            for n, e in self._components.entries.items()
             if n not in fallbacks
             for p in e.component._rtcf_outputs.values()
         }
@@ -792,11 +580,11 @@ class Runner:
                     stub = self._stubs[info.topic] = OutputPort(node.name, info.name, info.type)
                     stub.topic = info.topic
                 outputs.setdefault(info.topic, stub)
-        for entry in self._loaded.values():
+        for entry in self._components.entries.values():
             for port in entry.component._rtcf_inputs.values():
                 port._connect(outputs.get(port.topic))
         for fb in fallbacks:  # a fallback writes its primary's outputs: the same slots
-            for out in self._loaded[fb].component._rtcf_outputs.values():
+            for out in self._components.entries[fb].component._rtcf_outputs.values():
                 if out.topic in outputs:
                     out._slot = outputs[out.topic]._slot
         everyone = self._all_members()
@@ -842,10 +630,10 @@ class Runner:
             for lane in let.values():  # released first, on what the step above took
                 for n in lane.members:
                     if members[n].scheduled:
-                        add(n, self._loaded[n].component.update, spread_rates[n], False)
+                        add(n, self._components.entries[n].component.update, spread_rates[n], False)
             for n in graph.order:
                 if members[n].scheduled and members[n].lane not in let:
-                    add(n, self._loaded[n].component.update, spread_rates[n], False)
+                    add(n, self._components.entries[n].component.update, spread_rates[n], False)
         else:
             here = lanes[self.lane]
             if here.let:
@@ -853,7 +641,7 @@ class Runner:
             for step in self._lane_plan(lanes, members):
                 if step.kind == UPDATE:
                     n = step.name
-                    add(n, self._loaded[n].component.update, spread_rates[n], False)
+                    add(n, self._components.entries[n].component.update, spread_rates[n], False)
                 elif self.handovers is not None:
                     sent = step.kind in (SEND, LET_OUT)
                     at = outputs[step.name] if sent else self._stubs[step.name]
@@ -883,7 +671,7 @@ class Runner:
         return executor
 
     def _active_flags(self) -> list[bool]:
-        loaded = self._loaded
+        loaded = self._components.entries
         return [n not in loaded or loaded[n].state == ACTIVE for n in self._schedule]
 
     def _local_let(self, let: dict[str, Lane], members: dict[str, Member]) -> LocalLet | None:
@@ -892,7 +680,7 @@ class Runner:
         if not let:
             return None
         lane_of_comp = {n: m.lane for n, m in members.items()}
-        comps = {n: e.component for n, e in self._loaded.items()}
+        comps = {n: e.component for n, e in self._components.entries.items()}
         writers = {p.topic: p for c in comps.values() for p in c._rtcf_outputs.values()}
         slots = self._let_slots
         takes: dict[str, dict[str, Slot]] = {name: {} for name in let}  # topic -> source
@@ -935,7 +723,7 @@ class Runner:
         started = False
         standing_by = self.fallbacks()  # a fallback starts when its primary fails
         for name in self.graph.order:
-            entry = self._loaded.get(name)
+            entry = self._components.entries.get(name)
             if entry is None:  # another lane's
                 continue
             if entry.state != INACTIVE or not entry.autostart or name in standing_by:
@@ -1066,7 +854,7 @@ class Runner:
         """Apply the failed component's policy; raise ComponentError if the loop ends."""
         self._notices.drain()
         name = self._schedule[failure.index]
-        entry = self._loaded.get(name)
+        entry = self._components.entries.get(name)
         if entry is None:  # a lane's handover, not a component: a bug or bad data
             self.safe_stop(f"the lane handover {name!r} failed")
             exc = failure.error
@@ -1104,16 +892,15 @@ class Runner:
         lane takes over; restart). False when one of them stops the loop."""
         if trip.limit != "max_let_overruns":
             return False
-        names = [
-            n for n in self._schedule if n in self._loaded and self._loaded[n].state == ACTIVE
-        ]
-        policies = {self._loaded[n].spec.policy.on_error for n in names}
+        loaded = self._components.entries
+        names = [n for n in self._schedule if n in loaded and loaded[n].state == ACTIVE]
+        policies = {loaded[n].spec.policy.on_error for n in names}
         if not names or not policies <= {ON_ERROR_DEACTIVATE, ON_ERROR_RESTART}:
             return False
         self.state.iteration = trip.resume  # on the grid again: the next release
         what = trip.describe().replace("; the loop was stopped", "")
         for name in names:
-            if self._loaded[name].state != ACTIVE:  # taken out with another one
+            if self._components.entries[name].state != ACTIVE:  # taken out with another one
                 continue
             self._contain(UpdateFailure(
                 self._schedule.index(name), trip.iteration, self.state.time_ns,
@@ -1134,8 +921,8 @@ class Runner:
         """Take ``name`` and what reads its outputs out of the schedule; safe-stop them."""
         edges = [(e.producer.component, e.consumer.component) for e in self.graph.edges]
         order = self.graph.order
-        fallback = policy.fallback if policy.fallback in self._loaded else ""
-        if fallback and self._loaded[fallback].state != INACTIVE:
+        fallback = policy.fallback if policy.fallback in self._components.entries else ""
+        if fallback and self._components.entries[fallback].state != INACTIVE:
             fallback = ""  # not ready to take over (failed itself, or unconfigured)
         # with a fallback, what reads the failed component's outputs goes on
         affected = [name] if fallback else downstream(name, edges)
@@ -1143,11 +930,12 @@ class Runner:
         victims = [
             n
             for n in affected
-            if n == name or (n in self._loaded and self._loaded[n].state == ACTIVE)
+            if n == name
+            or (n in self._components.entries and self._components.entries[n].state == ACTIVE)
         ]
         taken = []
         for n in victims:
-            entry = self._loaded[n]
+            entry = self._components.entries[n]
             entry.autostart = False
             if entry.state == ACTIVE:
                 entry.state = INACTIVE
@@ -1177,9 +965,11 @@ class Runner:
         try:
             order = self.graph.order
         except RtcfError:
-            order = list(self._loaded)
+            order = list(self._components.entries)
         names = [
-            n for n in reversed(order) if n in self._loaded and self._loaded[n].state == ACTIVE
+            n
+            for n in reversed(order)
+            if n in self._components.entries and self._components.entries[n].state == ACTIVE
         ]
         if reason:
             self._notices.log(LogLevel.WARNING, self.name, f"safe stop: {reason}")
@@ -1191,7 +981,7 @@ class Runner:
         self.state.running = False  # a hook, not update: self.log.nonrt is fine
         try:
             for name in names:
-                component = self._loaded[name].component
+                component = self._components.entries[name].component
                 if not overrides(component, "safe_stop"):
                     continue
                 try:
@@ -1249,16 +1039,7 @@ class Runner:
         """
         if self._executor is None:
             self._executor = self._compile()
-        maps = self.settings.maps_to_ros
-        comps = [e.component for e in self._loaded.values()]
-        outputs = [p for c in comps for p in c._rtcf_outputs.values() if maps(p.topic)]
-        inputs = [
-            p
-            for c in comps
-            for p in c._rtcf_inputs.values()
-            if p.producer is None and maps(p.topic)
-        ]
-        return outputs, inputs
+        return self._components.mapped_ports()
 
     def rate_plan(self) -> list[str] | None:
         """The multi-rate plan as a table (components x phases of the hyperperiod) with
@@ -1267,11 +1048,10 @@ class Runner:
             self._executor = self._compile()
         if all(every == 1 for every, _ in self._rates):
             return None
-        costs = [
-            self._loaded[n].spec.rate.cost if n in self._loaded else 0.0 for n in self._schedule
-        ]
+        loaded = self._components.entries
+        costs = [loaded[n].spec.rate.cost if n in loaded else 0.0 for n in self._schedule]
         lanes = [
-            lane_of(self._loaded[n].spec.lane) if n in self._loaded else self._foreign_lane(n)
+            lane_of(loaded[n].spec.lane) if n in loaded else self._foreign_lane(n)
             for n in self._schedule
         ]
         return plan_table(self._schedule, self._rates, costs, self.settings.frequency, lanes)
@@ -1315,13 +1095,14 @@ class Runner:
         try:
             order = self.graph.order
         except RtcfError:
-            order = list(self._loaded)
-        entries = [self._loaded[n] for n in reversed(order) if n in self._loaded]
-        self._loaded.clear()
+            order = list(self._components.entries)
+        loaded = self._components.entries
+        entries = [loaded[n] for n in reversed(order) if n in loaded]
+        self._components.entries.clear()
         self._invalidate()
         return self._teardown(entries)
 
-    def _teardown(self, entries: Iterable[_Loaded]) -> list[ComponentError]:
+    def _teardown(self, entries: Iterable[Loaded]) -> list[ComponentError]:
         errors: list[ComponentError] = []
         for entry in entries:
             name = entry.spec.full_name
@@ -1345,14 +1126,6 @@ class Runner:
 # what unloading or shutting down runs, by lifecycle state (a transition state: a hook
 # of it failed and error processing is under way; nothing more runs then)
 _TEARDOWN = {ACTIVE: ("stop", "cleanup"), INACTIVE: ("cleanup",)}
-
-
-def _port_info(port: Any) -> dict[str, Any]:
-    return {"name": port.name, "topic": port.topic, "type": type_name(port.type)}
-
-
-def _info(component: str, port: Any) -> PortInfo:
-    return PortInfo(component, port.name, port.topic, port.type)
 
 
 def _unbound(step: Step) -> Callable[[], object]:

@@ -1,0 +1,339 @@
+"""The components a runner holds: how they are loaded, described, tuned and wired.
+
+:class:`ComponentSpec` is a request to load one (what an rt_launcher sends to its
+runner); :class:`Components` constructs and configures it, keeps it by full name in
+load order with its lifecycle state (:class:`Loaded`), and says what the graph and
+the other lanes must know of it (nodes, members, fallbacks). What the loop does with
+them is the schedule's (:mod:`rtcf._core._schedule`); their lifecycle transitions
+are :mod:`rtcf._core._transitions`'.
+"""
+
+from __future__ import annotations
+
+import re
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass, field
+from typing import Any
+
+from ._component import Component, _attach, overrides
+from ._errors import ComponentError, ConfigurationError, Location, RtcfError
+from ._faults import FailurePolicy
+from ._graph import GraphNode, PortInfo
+from ._lane_names import validate_lane_name
+from ._lanes import Member, lane_of
+from ._lifecycle import INACTIVE, STATE_LABELS
+from ._loader import load_component_class
+from ._loop_state import LoopState
+from ._message_types import type_name
+from ._names import Resolver, join, normalize_namespace, validate_name
+from ._notices import Notices
+from ._params import ParameterStore
+from ._ports import InputPort, OutputPort
+from ._rates import Rate
+from ._settings import RunnerSettings
+
+
+@dataclass
+class ComponentSpec:
+    """A request to load one component (what an rt_launcher sends to its runner).
+
+    Give the class either directly (``cls``) or as ``module`` and ``class_name``.
+    ``params`` are private parameters (``gain`` means ``~gain``), added to the
+    runner's parameter tree on load. ``topics_ignore_for_graph`` is a full-match
+    regex; matching incoming connections do not constrain the order. ``log_level``
+    is the component's start level (before ``configure``); None: the runner's.
+    ``policy`` says what the loop does when its ``update`` raises (``on_error``).
+    """
+
+    name: str
+    cls: type[Component] | None = None
+    module: str = ""
+    class_name: str = ""
+    namespace: str = "/"
+    remaps: list[tuple[str, str]] | Mapping[str, str] = field(default_factory=list)
+    params: Mapping[str, Any] = field(default_factory=dict)
+    is_first: bool = False
+    topics_ignore_for_graph: str = ""
+    location: Location | None = None
+    log_level: int | None = None
+    policy: FailurePolicy = field(default_factory=FailurePolicy)
+    rate: Rate = field(default_factory=Rate)  # how often it runs (rate, every, phase)
+    lane: str = ""  # the worker process (lane) it runs in; "" or "main": the runner's own
+
+    @property
+    def full_name(self) -> str:
+        return join(normalize_namespace(self.namespace), self.name)
+
+    @property
+    def type_name(self) -> str:
+        if self.cls is not None:
+            return f"{self.cls.__module__}.{self.cls.__qualname__}"
+        return f"{self.module}.{self.class_name}"
+
+
+@dataclass
+class Loaded:
+    spec: ComponentSpec
+    component: Component
+    ignore: re.Pattern[str] | None
+    state: int = INACTIVE  # lifecycle (_lifecycle): loaded means configured
+    autostart: bool = True  # activated when the loop next starts (until a transition)
+    restarts: int = 0  # times on_error restart brought it back
+
+
+class Components:
+    """The components loaded in this process, by full name in load order (``entries``)."""
+
+    def __init__(
+        self,
+        settings: RunnerSettings,
+        parameters: ParameterStore,
+        state: LoopState,
+        notices: Notices,
+        log_level: int,
+    ) -> None:
+        self.settings = settings
+        self.parameters = parameters
+        self.state = state
+        self.notices = notices
+        self.log_level = log_level  # a component's start level, unless its spec says
+        self.entries: dict[str, Loaded] = {}
+
+    def by_name(self) -> dict[str, Component]:
+        return {n: entry.component for n, entry in self.entries.items()}
+
+    # -- loading ------------------------------------------------------------
+    def load(self, spec: ComponentSpec, lane: str | None) -> Component:
+        """Construct and configure a component (``lane``: the lane this runner runs;
+        None: every lane)."""
+        file = spec.location.file if spec.location else None
+        line = spec.location.line if spec.location else None
+        full = spec.full_name
+
+        def fail(msg: str, cause: BaseException | None = None) -> ComponentError:
+            err = ComponentError(f"component {full!r}: {msg}", component=full, file=file, line=line)
+            err.__cause__ = cause
+            return err
+
+        problem = validate_name(spec.name, what="component name")
+        if problem or "/" in spec.name:
+            raise fail(problem or "a component name must not contain '/'; use the namespace")
+        problem = validate_lane_name(spec.lane) if spec.lane else None
+        if problem:
+            raise fail(f"lane {problem}")
+        if lane is not None and lane_of(spec.lane) != lane:
+            raise fail(f"is for lane {lane_of(spec.lane)!r}, but this runs lane {lane!r}")
+        if full in self.entries:
+            raise fail("is already loaded; give each component a unique name")
+        s = self.settings
+        if s.mode == "wait_for_components" and len(self.entries) >= s.num_components_expected:
+            raise fail(
+                f"is one more than the {s.num_components_expected} components this runner "
+                "expects (num_components_expected); raise that number or load fewer"
+            )
+        try:
+            ignore = (
+                re.compile(spec.topics_ignore_for_graph) if spec.topics_ignore_for_graph else None
+            )
+        except re.error as exc:
+            raise fail(
+                f"topics_ignore_for_graph {spec.topics_ignore_for_graph!r} is not a valid "
+                f"regular expression: {exc}"
+            ) from None
+        try:  # a rate that does not divide the frequency: say so before configure runs
+            every, _ = spec.rate.divider(self.settings.frequency, full)
+        except ConfigurationError as exc:
+            raise ComponentError(exc.message, component=full, file=file, line=line) from None
+        cls = spec.cls
+        if cls is None:
+            try:
+                cls = load_component_class(spec.module, spec.class_name, component=full)
+            except ComponentError as exc:
+                raise ComponentError(
+                    exc.message, component=full, file=file, line=line
+                ) from exc.__cause__
+        namespace = normalize_namespace(spec.namespace)
+        resolver = Resolver(namespace, spec.name, spec.remaps)
+        for key, value in spec.params.items():
+            self.parameters.set(resolver.private(key), value)
+
+        component = cls.__new__(cls)
+        _attach(
+            component,
+            name=spec.name,
+            namespace=namespace,
+            resolver=resolver,
+            store=self.parameters,
+            ring=self.notices.ring,
+            state=self.state,
+            emit=self.notices.emit,
+            every=every,
+        )
+        component.log.set_level(self.log_level if spec.log_level is None else spec.log_level)
+        try:
+            component.__init__()  # type: ignore[misc]
+            self.notices.observe(full, "configure")
+            ok = component.configure()
+        except RtcfError as exc:
+            self.notices.drain()
+            raise fail(f"configure() failed: {exc}", exc) from exc
+        except Exception as exc:
+            self.notices.drain()
+            raise fail(f"configure() raised {type(exc).__name__}: {exc}", exc) from exc
+        self.notices.drain()
+        if ok is False:
+            raise fail("configure() returned False")
+        component._rtcf_configured = True
+        component.params.sealed = True
+        self.entries[full] = Loaded(spec, component, ignore)
+        return component
+
+    def entry(self, name: str) -> Loaded:
+        full = normalize_namespace(name) if name.startswith("/") else join("/", name)
+        entry = self.entries.get(full)
+        if entry is None:
+            known = ", ".join(self.entries) or "none"
+            raise ComponentError(f"component {full!r} is not loaded (loaded: {known})")
+        return entry
+
+    def remove(self, name: str) -> Loaded:
+        """Take a component out (its hooks are the lifecycle's to run)."""
+        entry = self.entry(name)
+        del self.entries[entry.spec.full_name]
+        return entry
+
+    # -- tuning ---------------------------------------------------------------
+    def describe(self, name: str) -> dict[str, Any]:
+        """A loaded component as tools show it: type, ports, parameters, tunables."""
+        entry = self.entry(name)
+        comp = entry.component
+        full = entry.spec.full_name
+        private = self.parameters.get(comp._rtcf_resolver.private(), {})
+        return {
+            "name": full,
+            "type": entry.spec.type_name,
+            "launcher": "",
+            "inputs": [_port_info(p) for p in comp._rtcf_inputs.values()],
+            "outputs": [_port_info(p) for p in comp._rtcf_outputs.values()],
+            "parameters": private if isinstance(private, dict) else {},
+            "tunables": [
+                {**t.spec.to_dict(), "value": t.value} for t in comp.params.declared.values()
+            ],
+            "log_level": comp.log.level,
+            "every": comp.every,  # runs every this many iterations (rate, every)
+            "lifecycle": STATE_LABELS[entry.state],
+        }
+
+    def connections(self, maps: Callable[[str], bool]) -> list[dict[str, Any]]:
+        """Per topic, its publishers and subscribers and whether it reaches the
+        middleware (``maps``), sorted by topic."""
+        connections: dict[str, dict[str, Any]] = {}
+        for full, entry in self.entries.items():
+            comp = entry.component
+            roles = ((comp._rtcf_outputs, "publishers"), (comp._rtcf_inputs, "subscribers"))
+            for table, role in roles:
+                for port in table.values():
+                    c = connections.setdefault(port.topic, {
+                        "topic": port.topic,
+                        "type": type_name(port.type),
+                        "publishers": [],
+                        "subscribers": [],
+                        "ros": maps(port.topic),
+                    })
+                    c[role].append(full)
+        return [connections[t] for t in sorted(connections)]
+
+    def set_parameter(self, component: str, name: str, value: Any) -> Any:
+        """Validate and set a tunable parameter; returns the value as set."""
+        entry = self.entry(component)
+        tunable = entry.component.params.declared.get(name)
+        if tunable is None:
+            known = ", ".join(entry.component.params.declared) or "none"
+            raise ConfigurationError(
+                f"component {entry.spec.full_name!r} has no tunable parameter {name!r} "
+                f"(it declares: {known})"
+            )
+        value = tunable.spec.validate(value)
+        tunable._apply(value)
+        return value
+
+    def set_log_level(self, component: str, level: int | str) -> None:
+        """Records below ``level`` are dropped where they are made (never queued)."""
+        self.entry(component).component.log.set_level(level)
+
+    # -- wiring ---------------------------------------------------------------
+    def fallbacks(self) -> dict[str, str]:
+        """Loaded fallback components and the component each stands in for (on_error)."""
+        return {
+            e.spec.policy.fallback: name
+            for name, e in self.entries.items()
+            if e.spec.policy.fallback in self.entries and e.spec.policy.fallback != name
+        }
+
+    def graph_nodes(self) -> list[GraphNode]:
+        """A node per component; a fallback's inputs count as its primary's (it runs in
+        the primary's place in the order, and writes the primary's outputs)."""
+        fallbacks = self.fallbacks()
+        extra: dict[str, list[PortInfo]] = {}
+        for fb, primary in fallbacks.items():
+            comp = self.entries[fb].component
+            extra[primary] = [_info(primary, p) for p in comp._rtcf_inputs.values()]
+        nodes = []
+        for full, entry in self.entries.items():
+            if full in fallbacks:
+                continue
+            comp = entry.component
+            nodes.append(
+                GraphNode(
+                    name=full,
+                    inputs=[_info(full, p) for p in comp._rtcf_inputs.values()]
+                    + extra.get(full, []),
+                    outputs=[_info(full, p) for p in comp._rtcf_outputs.values()],
+                    is_first=entry.spec.is_first,
+                    ignore_pattern=entry.ignore,
+                    label=type(comp).__name__,
+                    lane=lane_of(entry.spec.lane),
+                )
+            )
+        return nodes
+
+    def members(self) -> list[Member]:
+        """What the other lanes must know of these components (with
+        :meth:`graph_nodes`): lane, rate, cost, whether the loop calls them."""
+        frequency = self.settings.frequency
+        out = []
+        for full, entry in self.entries.items():
+            every, phase = entry.spec.rate.divider(frequency, full)
+            out.append(
+                Member(
+                    full,
+                    lane_of(entry.spec.lane),
+                    every,
+                    phase,
+                    entry.spec.rate.cost,
+                    overrides(entry.component, "update"),
+                )
+            )
+        return out
+
+    def mapped_ports(self) -> tuple[list[OutputPort[Any]], list[InputPort[Any]]]:
+        """Outputs whose topic maps to the middleware, and mapped inputs nothing here
+        feeds (once the ports are connected: after the schedule compiled)."""
+        maps = self.settings.maps_to_ros
+        comps = [e.component for e in self.entries.values()]
+        outputs = [p for c in comps for p in c._rtcf_outputs.values() if maps(p.topic)]
+        inputs = [
+            p
+            for c in comps
+            for p in c._rtcf_inputs.values()
+            if p.producer is None and maps(p.topic)
+        ]
+        return outputs, inputs
+
+
+def _port_info(port: Any) -> dict[str, Any]:
+    return {"name": port.name, "topic": port.topic, "type": type_name(port.type)}
+
+
+def _info(component: str, port: Any) -> PortInfo:
+    return PortInfo(component, port.name, port.topic, port.type)
