@@ -112,7 +112,7 @@ def _fig1_runner(every: dict[str, int] | None = None) -> Any:
 
 def _phase_calls(runner: Any) -> list[list[Callable[[], object]]]:
     """The updates each phase of the hyperperiod runs, as the executor's plans say."""
-    return [[u for _, u in plan.steps] for plan in runner._executor.plans]
+    return [[u for _, u in plan.steps] for plan in runner._schedule.executor.plans]
 
 
 def tight_loops(quick: bool) -> dict[str, Any]:

@@ -16,7 +16,7 @@ from ._clock import Clock, MonotonicClock
 from ._component import Component, overrides
 from ._components import Components, ComponentSpec, Loaded
 from ._errors import ComponentError, ConfigurationError, LoopError, RtcfError
-from ._executor import ABORT, Executor, StopFlag, UpdateFailure
+from ._executor import ABORT, StopFlag, UpdateFailure
 from ._faults import DEACTIVATE as ON_ERROR_DEACTIVATE
 from ._faults import (
     LET_OVERRUNS,
@@ -28,20 +28,12 @@ from ._faults import (
     downstream,
 )
 from ._faults import RESTART as ON_ERROR_RESTART
-from ._graph import Graph, GraphNode, build_graph
+from ._graph import Graph, GraphNode
 from ._lane_names import MAIN_LANE
 from ._lanes import (
-    LET_OUT,
-    SEND,
-    UPDATE,
-    Connection,
     Lane,
-    LocalLet,
     Member,
     Step,
-    lane_of,
-    lane_steps,
-    lanes_of,
 )
 from ._lifecycle import (
     ACTIVATE,
@@ -72,10 +64,11 @@ from ._names import join, normalize_namespace
 from ._notices import Notices
 from ._params import ParameterStore
 from ._ports import InputPort, OutputPort, Slot
-from ._rates import plan_table, spread
 from ._rings import Ring
+from ._schedule import Schedule
 from ._settings import RunnerSettings
 from ._timing import TimingAggregate, TimingSummary, TimingWriter, local_ring
+from ._topology import Topology
 from ._tunables import LIFECYCLE, LOG_LEVEL, PARAMETER
 
 
@@ -145,28 +138,12 @@ class Runner:
             self.settings, self.parameters, self.state, self._notices, self.log_level
         )
         self._triggered = False
-        self._graph: Graph | None = None
-        self._executor: Executor | None = None
-        self._previous: Executor | None = None  # the last executor, for the time grid
-        self._schedule: list[str] = []  # timing columns: components, and lanes' handovers
-        # lanes: the lane this runner runs (None: every lane, in this process), what it
-        # knows of the components loaded in the other lanes' processes, and what makes
-        # a handover step of a lane plan (the runtime's shared memory)
-        self.lane: str | None = None
-        self._foreign_nodes: list[GraphNode] = []
-        self._foreign_members: list[Member] = []
-        self._mirror: set[str] = set()  # topics the main lane receives for a trace
-        self._shared_topics: set[str] = set()  # written in several lanes
-        # a handover step, bound to the port whose slot it fills or reads
-        self.handovers: Callable[[Step, OutputPort[Any]], Callable[[], object]] | None = None
-        self._stubs: dict[str, OutputPort[Any]] = {}  # foreign producers' topics
-        self._let_slots: dict[tuple[str, str], Slot] = {}  # in-process LET (lane, topic)
-        self._visible: dict[str, Slot] = {}  # LET outputs as the other lanes see them
-        self._rates: list[tuple[int, int]] = []  # (every, phase) per scheduled component
+        self._topology = Topology(self._components, self.settings, name)
+        self._schedule = Schedule(
+            self._components, self._topology, self.settings, self.clock, self.state
+        )
         # told of every lifecycle change of a component: a transition, a fault's take-out
         self.transition_listeners: list[Callable[[str, TransitionOutcome], None]] = []
-        # the executor's running-component word (a worker passes a shared-memory one)
-        self.running_cell: Any = None
         self.faults: list[Fault] = []  # contained failures of this runner's life
         self.on_fault: Callable[[Fault], None] | None = None  # a worker counts them
         self.safe_stops: list[SafeStopOutcome] = []  # of the last safe stop
@@ -305,7 +282,7 @@ class Runner:
         entry.autostart = False  # from now on it stays where it was put
         entry.state = via
         if start == ACTIVE:
-            self._replan()  # out of the schedule before its hooks run
+            self._schedule.replan()  # out of the schedule before its hooks run
         cleanup_tried = False
         if tid == CONFIGURE:
             result, reason = self._reconfigure(entry)
@@ -339,7 +316,7 @@ class Runner:
             end = RESULTS[(ERRORPROCESSING, error_result)][1]
         entry.state = end
         if end == ACTIVE or start == ACTIVE:
-            self._replan()
+            self._schedule.replan()
         return TransitionOutcome(tid, start, end, result, error_result, reason)
 
     def _hook(self, entry: Loaded, hook: str) -> tuple[str, str]:
@@ -380,12 +357,6 @@ class Runner:
             params.previous, params.declared, params.sealed = None, first, True
         return result, reason
 
-    def _replan(self) -> None:
-        """Swap in the plan of the active components (between iterations)."""
-        executor = self._executor
-        if executor is not None:
-            executor.set_active(self._active_flags())
-
     def activate(self) -> None:
         """Allow the loop to run (mode ``wait_for_trigger``; the original's activate_rt_loop)."""
         self._triggered = True
@@ -400,7 +371,7 @@ class Runner:
 
     def not_ready_reason(self) -> str | None:
         # (with lanes, the components of every lane count)
-        s, n = self.settings, len(self._components.entries) + len(self._foreign_members)
+        s, n = self.settings, len(self._components.entries) + len(self._topology.foreign_members)
         if n == 0:
             return "no component is loaded"
         if s.mode == "wait_for_components" and n < s.num_components_expected:
@@ -417,10 +388,8 @@ class Runner:
         if self.state.running:
             # loading or unloading stops the loop: it must not call a stale schedule
             self.stop_flag.set()
-        self._graph = None
-        if self._executor is not None:
-            self._previous = self._executor
-        self._executor = None
+        self._topology.invalidate()
+        self._schedule.invalidate()
 
     def fallbacks(self) -> dict[str, str]:
         """Loaded fallback components and the component each stands in for (on_error)."""
@@ -447,279 +416,89 @@ class Runner:
         runs): the order, the rates and the handovers are computed over all of them.
         ``mirror``: topics of other lanes the main lane receives after each iteration
         whoever reads them (to trace them)."""
-        self._foreign_nodes = list(nodes)
-        self._foreign_members = list(members)
-        self._mirror = set(mirror)
+        self._topology.set_foreign(nodes, members, mirror)
         self._invalidate()
 
     def recompile(self) -> None:
         """Compile the plan again before the next run (new handovers were bound)."""
         self._invalidate()
 
+    @property
+    def lane(self) -> str | None:
+        """The lane this runner runs (None: every lane, in this process)."""
+        return self._schedule.lane
+
+    @lane.setter
+    def lane(self, lane: str | None) -> None:
+        self._schedule.lane = lane
+
+    @property
+    def handovers(self) -> Callable[[Step, OutputPort[Any]], Callable[[], object]] | None:
+        """What makes a handover step of a lane plan (the runtime's shared memory),
+        bound to the port whose slot it fills or reads."""
+        return self._schedule.handovers
+
+    @handovers.setter
+    def handovers(
+        self, handovers: Callable[[Step, OutputPort[Any]], Callable[[], object]] | None
+    ) -> None:
+        self._schedule.handovers = handovers
+
+    @property
+    def running_cell(self) -> Any:
+        """The executor's running-component word (a worker passes a shared-memory one)."""
+        return self._schedule.running_cell
+
+    @running_cell.setter
+    def running_cell(self, cell: Any) -> None:
+        self._schedule.running_cell = cell
+
     def foreign_slots(self) -> dict[str, Slot]:
         """The slots that hold the values of other lanes' topics in this process."""
-        if self._executor is None:
-            self._executor = self._compile()
-        return {t: p._slot for t, p in self._stubs.items()}
+        return self._schedule.foreign_slots()
 
     @property
     def missed_releases(self) -> int:
         """Releases a LET lane skipped after overrunning its window (counted)."""
-        executor = self._executor or self._previous
-        return executor.missed if executor is not None else 0
+        return self._schedule.missed_releases
 
     @property
     def time_grid(self) -> tuple[int | None, int | None]:
         """Where the next iteration is due and the grid's origin (None: not started)."""
-        if self._executor is None:
-            self._executor = self._compile()
-        return self._executor.next_deadline_ns, self._executor.origin_ns
+        return self._schedule.time_grid
 
     def resume_at(self, iteration: int, deadline_ns: int, origin_ns: int) -> None:
         """Run ``iteration`` next, due at ``deadline_ns``, on a time grid that starts at
         ``origin_ns``: where every lane of a run starts together."""
-        if self._executor is None:
-            self._executor = self._compile()
-        executor = self._executor
-        executor.next_deadline_ns = deadline_ns
-        if executor.origin_ns is None:
-            executor.origin_ns = origin_ns
-        self.state.iteration = iteration - executor.stride
+        self._schedule.resume_at(iteration, deadline_ns, origin_ns)
 
     def lanes(self) -> dict[str, Lane]:
         """Every lane with its members in the data-flow order, main first."""
-        return lanes_of(self._all_members(), self.graph.order)
-
-    def _all_members(self) -> list[Member]:
-        return self.members() + self._foreign_members
+        return self._topology.lanes()
 
     @property
     def graph(self) -> Graph:
         """The resolved data-flow graph (built on demand after loads and unloads): of
         every lane's components, this process's and the others'."""
-        if self._graph is None:
-            members = self._all_members()
-            kinds = lanes_of(members, [])  # a lane that mixes rates is an error here
-            let = {name for name, lane in kinds.items() if lane.let}
-            graph = build_graph(self.graph_nodes() + self._foreign_nodes, let_lanes=let)
-            lanes = {m.name: m.lane for m in members}
-            for fb, primary in self.fallbacks().items():  # right after what it stands in for
-                graph.order.insert(graph.order.index(primary) + 1, fb)
-            for name, entry in self._components.entries.items():
-                fb = entry.spec.policy.fallback
-                if (
-                    fb
-                    and fb not in self._components.entries
-                    and lanes.get(fb, lanes[name]) != lanes[name]
-                ):
-                    raise ConfigurationError(
-                        f"component {name!r}: its fallback {fb!r} is in lane {lanes[fb]!r}, "
-                        f"not in its own lane {lanes[name]!r}: a fallback writes the outputs "
-                        "of the component it stands in for, so put both in one lane"
-                    )
-            written: dict[str, set[str]] = {}
-            for node in graph.nodes:
-                for port in node.outputs:
-                    written.setdefault(port.topic, set()).add(lanes.get(node.name, MAIN_LANE))
-            # (several producers of a topic someone reads are refused by the graph; one
-            # written in several lanes that no one reads is not traced)
-            self._shared_topics = {t for t, where in written.items() if len(where) > 1}
-            if len(kinds) > 1 and self.settings.wait_policy != "absolute":
-                raise ConfigurationError(
-                    f"runner {self.name!r}: wait_policy {self.settings.wait_policy!r} does not "
-                    "go with lanes: lanes keep one time grid (wait_policy absolute)"
-                )
-            self._graph = graph
-        return self._graph
+        return self._topology.graph
 
     def lane_plan(self) -> list[Step]:
         """The steps of this runner's lane (the main lane in a runner of every lane)."""
-        members = {m.name: m for m in self._all_members()}
-        return self._lane_plan(self.lanes(), members)
-
-    def _lane_plan(self, lanes: dict[str, Lane], members: dict[str, Member]) -> list[Step]:
-        edges = self.graph.edges
-        connections = [Connection(e.topic, e.producer.component, e.consumer.component)
-                       for e in edges]
-        producers = {
-            p.topic: n.name for n in self.graph_nodes() + self._foreign_nodes for p in n.outputs
-        }
-        mirror = {  # (a topic written in several lanes that no one reads: not traced)
-            t: producers[t] for t in sorted(self._mirror)
-            if t in producers and t not in self._shared_topics
-        }
-        return lane_steps(
-            self.lane or MAIN_LANE, lanes, members, self.graph.order, connections, mirror
-        )
+        return self._topology.lane_plan(self._schedule.lane)
 
     def visible_slots(self) -> dict[str, Slot]:
         """The slots other lanes read a LET lane's outputs from (a trace samples these)."""
-        if self._executor is None:
-            self._executor = self._compile()
-        return dict(self._visible)
+        return self._schedule.visible_slots()
 
     @property
     def order(self) -> list[str]:
         return list(self.graph.order)
 
-    def _compile(self) -> Executor:
-        graph = self.graph
-        fallbacks = self.fallbacks()
-        outputs: dict[str, OutputPort[Any]] = {
-            p.topic: p
-            for n, e in self._components.entries.items()
-            if n not in fallbacks
-            for p in e.component._rtcf_outputs.values()
-        }
-        # a topic produced in another lane's process: its value arrives by a handover
-        # into a stand-in output's slot, which this lane's readers share
-        for node in self._foreign_nodes:
-            for info in node.outputs:
-                stub = self._stubs.get(info.topic)
-                if stub is None or stub.type is not info.type:
-                    stub = self._stubs[info.topic] = OutputPort(node.name, info.name, info.type)
-                    stub.topic = info.topic
-                outputs.setdefault(info.topic, stub)
-        for entry in self._components.entries.values():
-            for port in entry.component._rtcf_inputs.values():
-                port._connect(outputs.get(port.topic))
-        for fb in fallbacks:  # a fallback writes its primary's outputs: the same slots
-            for out in self._components.entries[fb].component._rtcf_outputs.values():
-                if out.topic in outputs:
-                    out._slot = outputs[out.topic]._slot
-        everyone = self._all_members()
-        lanes = lanes_of(everyone, graph.order)
-        let = {name: lane for name, lane in lanes.items() if lane.let}
-        members = {m.name: m for m in everyone}
-        # the rates of the loop's lock-step components, spread over the phases as one
-        # plan in every lane; a LET lane's are its lane's
-        spread_names = [
-            n for n in graph.order if members[n].scheduled and members[n].lane not in let
-        ]
-        spread_rates = dict(
-            zip(
-                spread_names,
-                spread(
-                    spread_names,
-                    [(members[n].every, members[n].phase) for n in spread_names],
-                    [members[n].cost for n in spread_names],
-                ),
-                strict=True,
-            )
-        )
-        for lane in let.values():
-            for n in lane.members:
-                spread_rates[n] = (lane.every, lane.phase)
-        updates: list[Callable[[], object]] = []
-        labels: list[str] = []
-        rates: list[tuple[int, int]] = []
-        always: list[bool] = []
-        stride = 1
-
-        def add(label: str, update: Callable[[], object], rate: tuple[int, int], pin: bool) -> None:
-            labels.append(label)
-            updates.append(update)
-            rates.append(rate)
-            always.append(pin)
-
-        self._visible = {}
-        if self.lane is None:  # every lane here, one after the other: the reference
-            local = self._local_let(let, members)
-            if local is not None:
-                add("@let", local, (1, 0), True)
-            for lane in let.values():  # released first, on what the step above took
-                for n in lane.members:
-                    if members[n].scheduled:
-                        add(n, self._components.entries[n].component.update, spread_rates[n], False)
-            for n in graph.order:
-                if members[n].scheduled and members[n].lane not in let:
-                    add(n, self._components.entries[n].component.update, spread_rates[n], False)
-        else:
-            here = lanes[self.lane]
-            if here.let:
-                stride = here.every
-            for step in self._lane_plan(lanes, members):
-                if step.kind == UPDATE:
-                    n = step.name
-                    add(n, self._components.entries[n].component.update, spread_rates[n], False)
-                elif self.handovers is not None:
-                    sent = step.kind in (SEND, LET_OUT)
-                    at = outputs[step.name] if sent else self._stubs[step.name]
-                    add(step.label, self.handovers(step, at), (1, 0), True)
-                else:  # compiled to name the columns; the runtime binds the handovers
-                    add(step.label, _unbound(step), (1, 0), True)
-        self._schedule = labels
-        executor = Executor(
-            updates,
-            self.clock,
-            self.state,
-            wait_policy=self.settings.wait_policy,
-        )
-        executor.stride = stride
-        executor.skip_missed = stride > 1
-        self._rates = rates
-        executor.set_rates(rates, self._active_flags(), always)
-        if self.running_cell is not None:
-            executor.running = self.running_cell
-        executor.max_consecutive_overruns = self.settings.max_consecutive_overruns
-        executor.max_overruns_per_second = self.settings.max_overruns_per_second
-        executor.max_let_overruns = self.settings.max_let_overruns
-        previous = self._executor or self._previous
-        if previous is not None:  # keep time on the same grid as the iterations before
-            executor.origin_ns = previous.origin_ns
-            executor.next_deadline_ns = previous.next_deadline_ns
-        return executor
-
-    def _active_flags(self) -> list[bool]:
-        loaded = self._components.entries
-        return [n not in loaded or loaded[n].state == ACTIVE for n in self._schedule]
-
-    def _local_let(self, let: dict[str, Lane], members: dict[str, Member]) -> LocalLet | None:
-        """LET in this process: private slots for the LET lanes' crossing inputs and
-        outputs, and the step that copies them at releases and window ends."""
-        if not let:
-            return None
-        lane_of_comp = {n: m.lane for n, m in members.items()}
-        comps = {n: e.component for n, e in self._components.entries.items()}
-        writers = {p.topic: p for c in comps.values() for p in c._rtcf_outputs.values()}
-        slots = self._let_slots
-        takes: dict[str, dict[str, Slot]] = {name: {} for name in let}  # topic -> source
-        shows: dict[str, dict[str, Slot]] = {name: {} for name in let}  # topic -> public
-        for n, comp in comps.items():
-            reader = lane_of_comp.get(n, "")
-            for port in comp._rtcf_inputs.values():
-                producer = port.producer
-                source = lane_of_comp.get(producer.component, "") if producer else reader
-                if source == reader or (source not in let and reader not in let):
-                    continue
-                topic = port.topic
-                src = producer._slot if producer is not None else port._slot
-                if source in let:  # what the others see of a LET lane's output
-                    src = slots.setdefault(("", topic), Slot())
-                    shows[source][topic] = src
-                if reader in let:  # a LET lane's input, taken at its release
-                    takes[reader][topic] = src
-                    src = slots.setdefault((reader, topic), Slot())
-                port._slot = src
-        plan = []
-        for name, lane in let.items():
-            self._visible.update(shows[name])
-            plan.append(
-                (
-                    lane.every,
-                    lane.phase,
-                    [(src, slots[(name, t)]) for t, src in sorted(takes[name].items())],
-                    [(writers[t]._slot, dst) for t, dst in sorted(shows[name].items())],
-                )
-            )
-        return LocalLet(self.state, plan)
-
     def start_components(self) -> None:
         """Activate (``start``) the components loaded since the loop last started, in
         execution order; ``run`` does it first. One that a lifecycle transition left
         inactive stays so."""
-        if self._executor is None:
-            self._executor = self._compile()
+        self._schedule.compiled()
         started = False
         standing_by = self.fallbacks()  # a fallback starts when its primary fails
         for name in self.graph.order:
@@ -744,7 +523,7 @@ class Runner:
             started = True
             self._announce(name, TransitionOutcome(ACTIVATE, INACTIVE, ACTIVE, SUCCESS))
         if started:
-            self._replan()
+            self._schedule.replan()
         self._notices.drain()
 
     # -- running ------------------------------------------------------------
@@ -778,15 +557,13 @@ class Runner:
         reason = self.not_ready_reason()
         if reason is not None:
             raise ConfigurationError(f"runner {self.name!r} cannot run: {reason}")
-        if self._executor is None:
-            self._executor = self._compile()
-        executor = self._executor
+        executor = self._schedule.compiled()
         self.start_components()
         aggregate = None
         if timing_ring is None:
-            timing_ring = local_ring(len(self._schedule), self._timing_capacity)
+            timing_ring = local_ring(len(self._schedule.labels), self._timing_capacity)
             aggregate = TimingAggregate()
-        writer = TimingWriter(self._schedule, timing_ring)
+        writer = TimingWriter(self._schedule.labels, timing_ring)
         executor.timing = writer
         executor.feeders = tuple(feeders)
         executor.ros_offset_ns = ros_offset_ns
@@ -833,7 +610,7 @@ class Runner:
             stopped_by = "abort"
             self.safe_stop("the loop was stopped abnormally (a signal, or the supervisor)")
         if aggregate is not None:
-            aggregate.finish(timing_ring, self._schedule)
+            aggregate.finish(timing_ring, self._schedule.labels)
             timing = aggregate.summary(writer.count, writer.overruns)
         else:
             timing = TimingSummary(iterations=writer.count, samples=0, overruns=writer.overruns)
@@ -853,7 +630,7 @@ class Runner:
     def _contain(self, failure: UpdateFailure) -> None:
         """Apply the failed component's policy; raise ComponentError if the loop ends."""
         self._notices.drain()
-        name = self._schedule[failure.index]
+        name = self._schedule.labels[failure.index]
         entry = self._components.entries.get(name)
         if entry is None:  # a lane's handover, not a component: a bug or bad data
             self.safe_stop(f"the lane handover {name!r} failed")
@@ -893,7 +670,7 @@ class Runner:
         if trip.limit != "max_let_overruns":
             return False
         loaded = self._components.entries
-        names = [n for n in self._schedule if n in loaded and loaded[n].state == ACTIVE]
+        names = [n for n in self._schedule.labels if n in loaded and loaded[n].state == ACTIVE]
         policies = {loaded[n].spec.policy.on_error for n in names}
         if not names or not policies <= {ON_ERROR_DEACTIVATE, ON_ERROR_RESTART}:
             return False
@@ -903,7 +680,7 @@ class Runner:
             if self._components.entries[name].state != ACTIVE:  # taken out with another one
                 continue
             self._contain(UpdateFailure(
-                self._schedule.index(name), trip.iteration, self.state.time_ns,
+                self._schedule.labels.index(name), trip.iteration, self.state.time_ns,
                 _LetOverruns(what),
             ))
         return True
@@ -940,7 +717,7 @@ class Runner:
             if entry.state == ACTIVE:
                 entry.state = INACTIVE
                 taken.append(n)
-        self._replan()
+        self._schedule.replan()
         for n in taken:  # as a deactivation (safe_stop runs, not stop)
             why = f"on_error: deactivate, after {name!r} failed: {error}"
             self._announce(n, TransitionOutcome(DEACTIVATE, ACTIVE, INACTIVE, SUCCESS, "", why))
@@ -1012,7 +789,7 @@ class Runner:
     ) -> Callable[[], object] | None:
         ring = self._notices.ring if isinstance(self._notices.ring, LogRing) else None
         sink = self._notices.sink
-        names = self._schedule
+        names = self._schedule.labels
         half = timing_ring.capacity // 2
         if not drain and aggregate is None:
             return on_iteration
@@ -1037,34 +814,19 @@ class Runner:
         An input whose topic a component inside the runner produces is never fed from
         the middleware: that would be a second, non-real-time writer.
         """
-        if self._executor is None:
-            self._executor = self._compile()
+        self._schedule.compiled()  # the ports are connected
         return self._components.mapped_ports()
 
     def rate_plan(self) -> list[str] | None:
         """The multi-rate plan as a table (components x phases of the hyperperiod) with
         each phase's cost, or None when every component runs every iteration."""
-        if self._executor is None:
-            self._executor = self._compile()
-        if all(every == 1 for every, _ in self._rates):
-            return None
-        loaded = self._components.entries
-        costs = [loaded[n].spec.rate.cost if n in loaded else 0.0 for n in self._schedule]
-        lanes = [
-            lane_of(loaded[n].spec.lane) if n in loaded else self._foreign_lane(n)
-            for n in self._schedule
-        ]
-        return plan_table(self._schedule, self._rates, costs, self.settings.frequency, lanes)
-
-    def _foreign_lane(self, name: str) -> str:
-        return next((m.lane for m in self._foreign_members if m.name == name), MAIN_LANE)
+        return self._schedule.rate_plan()
 
     @property
     def schedule(self) -> list[str]:
         """Components whose update the loop calls, in order (those that override it)."""
-        if self._executor is None:
-            self._executor = self._compile()
-        return list(self._schedule)
+        self._schedule.compiled()
+        return list(self._schedule.labels)
 
     def drain_logs(self) -> int:
         return self._notices.drain()
@@ -1126,10 +888,3 @@ class Runner:
 # what unloading or shutting down runs, by lifecycle state (a transition state: a hook
 # of it failed and error processing is under way; nothing more runs then)
 _TEARDOWN = {ACTIVE: ("stop", "cleanup"), INACTIVE: ("cleanup",)}
-
-
-def _unbound(step: Step) -> Callable[[], object]:
-    def unbound() -> None:
-        raise RuntimeError(f"lane handover {step.label!r} is not bound to its shared memory")
-
-    return unbound
