@@ -14,7 +14,7 @@ from typing import Any
 
 from ._clock import Clock, MonotonicClock
 from ._component import Component, overrides
-from ._components import Components, ComponentSpec, Loaded
+from ._components import Components, ComponentSpec
 from ._errors import ComponentError, ConfigurationError, LoopError, RtcfError
 from ._executor import ABORT, StopFlag, UpdateFailure
 from ._faults import DEACTIVATE as ON_ERROR_DEACTIVATE
@@ -36,31 +36,14 @@ from ._lanes import (
     Step,
 )
 from ._lifecycle import (
-    ACTIVATE,
     ACTIVE,
-    CLEANUP,
-    CONFIGURE,
     DEACTIVATE,
-    ERROR,
-    ERRORPROCESSING,
-    FAILURE,
-    FINALIZED,
     INACTIVE,
-    REFUSED,
-    REQUESTS,
-    RESULTS,
-    STATE_LABELS,
     SUCCESS,
-    UNCONFIGURED,
-    UNKNOWN,
     TransitionOutcome,
-    available_transitions,
-    refused,
-    resolve_transition,
 )
 from ._log import LogLevel, LogRecord, LogRing, PythonLoggingSink, RecordSink
 from ._loop_state import LoopState
-from ._names import join, normalize_namespace
 from ._notices import Notices
 from ._params import ParameterStore
 from ._ports import InputPort, OutputPort, Slot
@@ -69,6 +52,7 @@ from ._schedule import Schedule
 from ._settings import RunnerSettings
 from ._timing import TimingAggregate, TimingSummary, TimingWriter, local_ring
 from ._topology import Topology
+from ._transitions import Transitions
 from ._tunables import LIFECYCLE, LOG_LEVEL, PARAMETER
 
 
@@ -142,8 +126,9 @@ class Runner:
         self._schedule = Schedule(
             self._components, self._topology, self.settings, self.clock, self.state
         )
-        # told of every lifecycle change of a component: a transition, a fault's take-out
-        self.transition_listeners: list[Callable[[str, TransitionOutcome], None]] = []
+        self._transitions = Transitions(
+            self._components, self.state, self._notices, self._schedule.replan
+        )
         self.faults: list[Fault] = []  # contained failures of this runner's life
         self.on_fault: Callable[[Fault], None] | None = None  # a worker counts them
         self.safe_stops: list[SafeStopOutcome] = []  # of the last safe stop
@@ -163,7 +148,7 @@ class Runner:
         """Stop and clean up a component and take it out of the loop."""
         entry = self._components.remove(name)
         self._invalidate()
-        errors = self._teardown([entry])
+        errors = self._transitions.teardown([entry])
         if errors:
             raise errors[0]
 
@@ -213,7 +198,7 @@ class Runner:
         A lifecycle transition (``name`` the transition) returns its outcome.
         """
         if kind == LIFECYCLE:
-            return self.change_state(component, name)
+            return self._transitions.change(component, name)
         # (applied here rather than by a call into Components: it runs in the loop)
         entry = self._components.entries.get(component)
         if entry is None:  # unloaded after the supervisor sent it: nothing to change
@@ -230,7 +215,7 @@ class Runner:
     def lifecycle_state(self, name: str) -> str:
         """A loaded component's lifecycle state: ``active``, ``inactive``, ``unconfigured``
         or ``finalized`` (a ROS 2 managed node's labels)."""
-        return STATE_LABELS[self._components.entry(name).state]
+        return self._transitions.state_of(name)
 
     def change_state(self, name: str, transition: int | str) -> TransitionOutcome:
         """Run one component's lifecycle transition; the others go on as they were.
@@ -243,119 +228,19 @@ class Runner:
         where the new plan already applies to that iteration. Between runs it applies
         at once. The hooks it runs may use ``self.log.nonrt``.
         """
-        full = normalize_namespace(name) if name.startswith("/") else join("/", name)
-        entry = self._components.entries.get(full)
-        if entry is None:
-            known = ", ".join(self._components.entries) or "none"
-            return refused(UNKNOWN, f"component {full!r} is not loaded (loaded: {known})")
-        if isinstance(transition, str) and transition.isdigit():
-            transition = int(transition)
-        tid = resolve_transition(entry.state, transition)
-        if tid is None:
-            allowed = ", ".join(
-                f"{d.label} [{d.transition}]" for d in available_transitions(entry.state)
-            )
-            outcome = refused(
-                entry.state,
-                f"component {full!r} is {STATE_LABELS[entry.state]}: no transition "
-                f"{transition!r} from there (available: {allowed or 'none'})",
-            )
-        else:
-            running = self.state.running
-            self.state.running = False  # hooks, not update: self.log.nonrt is fine
-            try:
-                outcome = self._transition(entry, tid)
-            finally:
-                self.state.running = running
-        level = LogLevel.INFO if outcome.ok else LogLevel.ERROR
-        self._notices.log(level, full, "lifecycle: " + outcome.describe())
-        if outcome.result != REFUSED:
-            self._announce(full, outcome)
-        return outcome
+        return self._transitions.change(name, transition)
 
-    def _announce(self, name: str, outcome: TransitionOutcome) -> None:
-        for listener in self.transition_listeners:
-            listener(name, outcome)
+    @property
+    def transition_listeners(self) -> list[Callable[[str, TransitionOutcome], None]]:
+        """Told of every lifecycle change of a component: a transition, a fault's
+        take-out."""
+        return self._transitions.listeners
 
-    def _transition(self, entry: Loaded, tid: int) -> TransitionOutcome:
-        _, start, via = REQUESTS[tid]
-        entry.autostart = False  # from now on it stays where it was put
-        entry.state = via
-        if start == ACTIVE:
-            self._schedule.replan()  # out of the schedule before its hooks run
-        cleanup_tried = False
-        if tid == CONFIGURE:
-            result, reason = self._reconfigure(entry)
-        elif tid == CLEANUP:
-            result, reason = self._hook(entry, "cleanup")
-            cleanup_tried = True
-        elif tid == ACTIVATE:
-            result, reason = self._hook(entry, "start")
-        elif tid == DEACTIVATE:
-            result, reason = self._hook(entry, "stop")
-        else:  # shutdown: every hook the component needs, whatever one returned
-            result, reason = SUCCESS, ""
-            if start == ACTIVE:
-                result, reason = self._hook(entry, "stop")
-            if start != UNCONFIGURED and result != ERROR:
-                cleaned, why = self._hook(entry, "cleanup")
-                cleanup_tried = True
-                if cleaned != SUCCESS:
-                    result, reason = cleaned, "; ".join(r for r in (reason, why) if r)
-        _, end = RESULTS[(via, result)]
-        error_result = ""
-        if end == ERRORPROCESSING:
-            entry.state = ERRORPROCESSING
-            if cleanup_tried:
-                error_result = FAILURE
-                reason += "; error processing: cleanup() failed already, so it is finalized"
-            else:
-                error_result, why = self._hook(entry, "cleanup")
-                if why:
-                    reason += "; error processing: " + why
-            end = RESULTS[(ERRORPROCESSING, error_result)][1]
-        entry.state = end
-        if end == ACTIVE or start == ACTIVE:
-            self._schedule.replan()
-        return TransitionOutcome(tid, start, end, result, error_result, reason)
-
-    def _hook(self, entry: Loaded, hook: str) -> tuple[str, str]:
-        """Run a lifecycle hook: success, failure (returned False) or error (raised)."""
-        try:
-            self._notices.observe(entry.spec.full_name, hook)
-            ok = getattr(entry.component, hook)()
-        except Exception as exc:
-            return ERROR, f"{hook}() raised {type(exc).__name__}: {exc}"
-        if ok is False:
-            return FAILURE, f"{hook}() returned False"
-        return SUCCESS, ""
-
-    def _reconfigure(self, entry: Loaded) -> tuple[str, str]:
-        """configure() again: it must declare the ports and tunables of the first time."""
-        comp = entry.component
-        params = comp.params
-        first = params.declared
-        comp._rtcf_redeclared = set()
-        comp._rtcf_configured = False
-        params.previous, params.declared, params.sealed = first, {}, False
-        try:
-            result, reason = self._hook(entry, "configure")
-            if result == SUCCESS:
-                ports = set(comp._rtcf_inputs) | set(comp._rtcf_outputs)
-                missing = [f"port {n!r}" for n in sorted(ports - comp._rtcf_redeclared)]
-                missing += [
-                    f"tunable parameter {n!r}" for n in sorted(set(first) - set(params.declared))
-                ]
-                if missing:
-                    result, reason = ERROR, (
-                        f"configure() did not declare {', '.join(missing)} again; configured "
-                        "again, a component must declare the same ports and tunable parameters"
-                    )
-        finally:
-            comp._rtcf_redeclared = None
-            comp._rtcf_configured = True
-            params.previous, params.declared, params.sealed = None, first, True
-        return result, reason
+    @transition_listeners.setter
+    def transition_listeners(
+        self, listeners: list[Callable[[str, TransitionOutcome], None]]
+    ) -> None:
+        self._transitions.listeners = listeners
 
     def activate(self) -> None:
         """Allow the loop to run (mode ``wait_for_trigger``; the original's activate_rt_loop)."""
@@ -499,32 +384,7 @@ class Runner:
         execution order; ``run`` does it first. One that a lifecycle transition left
         inactive stays so."""
         self._schedule.compiled()
-        started = False
-        standing_by = self.fallbacks()  # a fallback starts when its primary fails
-        for name in self.graph.order:
-            entry = self._components.entries.get(name)
-            if entry is None:  # another lane's
-                continue
-            if entry.state != INACTIVE or not entry.autostart or name in standing_by:
-                continue
-            try:
-                self._notices.observe(name, "start")
-                ok = entry.component.start()
-            except Exception as exc:
-                self._notices.drain()
-                raise ComponentError(
-                    f"component {name!r}: start() raised {type(exc).__name__}: {exc}",
-                    component=name,
-                ) from exc
-            if ok is False:
-                self._notices.drain()
-                raise ComponentError(f"component {name!r}: start() returned False", component=name)
-            entry.state = ACTIVE
-            started = True
-            self._announce(name, TransitionOutcome(ACTIVATE, INACTIVE, ACTIVE, SUCCESS))
-        if started:
-            self._schedule.replan()
-        self._notices.drain()
+        self._transitions.start(self.graph.order)
 
     # -- running ------------------------------------------------------------
     def run(
@@ -688,7 +548,7 @@ class Runner:
     def _restart(self, name: str) -> bool:
         """Clean up, configure and start a component again (lifecycle transitions)."""
         for transition in ("deactivate", "cleanup", "configure", "activate"):
-            if not self.change_state(name, transition).ok:
+            if not self._transitions.change(name, transition).ok:
                 return False
         return True
 
@@ -720,9 +580,11 @@ class Runner:
         self._schedule.replan()
         for n in taken:  # as a deactivation (safe_stop runs, not stop)
             why = f"on_error: deactivate, after {name!r} failed: {error}"
-            self._announce(n, TransitionOutcome(DEACTIVATE, ACTIVE, INACTIVE, SUCCESS, "", why))
+            self._transitions.announce(
+                n, TransitionOutcome(DEACTIVATE, ACTIVE, INACTIVE, SUCCESS, "", why)
+            )
         self._run_safe_stops(sorted(victims, key=order.index, reverse=True))
-        if fallback and not self.change_state(fallback, "activate").ok:
+        if fallback and not self._transitions.change(fallback, "activate").ok:
             fallback = ""
         self._record(Fault(name, iteration, error, "deactivated", victims, fallback, cause))
 
@@ -862,29 +724,4 @@ class Runner:
         entries = [loaded[n] for n in reversed(order) if n in loaded]
         self._components.entries.clear()
         self._invalidate()
-        return self._teardown(entries)
-
-    def _teardown(self, entries: Iterable[Loaded]) -> list[ComponentError]:
-        errors: list[ComponentError] = []
-        for entry in entries:
-            name = entry.spec.full_name
-            hooks = _TEARDOWN.get(entry.state, ())
-            for hook in hooks:
-                try:
-                    self._notices.observe(name, hook)
-                    getattr(entry.component, hook)()
-                except Exception as exc:
-                    err = ComponentError(
-                        f"component {name!r}: {hook}() raised {type(exc).__name__}: {exc}",
-                        component=name,
-                    )
-                    err.__cause__ = exc
-                    errors.append(err)
-            entry.state = FINALIZED
-        self._notices.drain()
-        return errors
-
-
-# what unloading or shutting down runs, by lifecycle state (a transition state: a hook
-# of it failed and error processing is under way; nothing more runs then)
-_TEARDOWN = {ACTIVE: ("stop", "cleanup"), INACTIVE: ("cleanup",)}
+        return self._transitions.teardown(entries)

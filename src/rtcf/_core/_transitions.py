@@ -1,0 +1,245 @@
+"""Component lifecycle transitions: the hooks outside the loop's updates, and who hears.
+
+One component's transition (``configure``, ``cleanup``, ``activate``, ``deactivate``,
+``shutdown``) runs its hooks on the state machine of :mod:`rtcf._core._lifecycle`,
+while the others go on as they were; the schedule is replanned around it. Starting
+the components a run begins with, and stopping and cleaning them up when they are
+unloaded or shut down, are lifecycle changes too. Every change is logged under the
+component's name and told to the listeners (a worker tells its supervisor).
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable, Sequence
+
+from ._components import Components, Loaded
+from ._errors import ComponentError
+from ._lifecycle import (
+    ACTIVATE,
+    ACTIVE,
+    CLEANUP,
+    CONFIGURE,
+    DEACTIVATE,
+    ERROR,
+    ERRORPROCESSING,
+    FAILURE,
+    FINALIZED,
+    INACTIVE,
+    REFUSED,
+    REQUESTS,
+    RESULTS,
+    STATE_LABELS,
+    SUCCESS,
+    UNCONFIGURED,
+    UNKNOWN,
+    TransitionOutcome,
+    available_transitions,
+    refused,
+    resolve_transition,
+)
+from ._log import LogLevel
+from ._loop_state import LoopState
+from ._names import join, normalize_namespace
+from ._notices import Notices
+
+
+class Transitions:
+    """Runs the loaded components' lifecycle transitions and tells the listeners.
+
+    ``replan`` swaps the plan of the active components into the loop (the
+    schedule's): called when a component leaves or joins the active ones.
+    """
+
+    def __init__(
+        self,
+        components: Components,
+        state: LoopState,
+        notices: Notices,
+        replan: Callable[[], None],
+    ) -> None:
+        self._components = components
+        self._state = state
+        self._notices = notices
+        self._replan = replan
+        # told of every lifecycle change of a component: a transition, a fault's take-out
+        self.listeners: list[Callable[[str, TransitionOutcome], None]] = []
+
+    def state_of(self, name: str) -> str:
+        """A loaded component's lifecycle state: ``active``, ``inactive``, ``unconfigured``
+        or ``finalized`` (a ROS 2 managed node's labels)."""
+        return STATE_LABELS[self._components.entry(name).state]
+
+    def change(self, name: str, transition: int | str) -> TransitionOutcome:
+        """Run one component's lifecycle transition (see :meth:`Runner.change_state`)."""
+        loaded = self._components.entries
+        full = normalize_namespace(name) if name.startswith("/") else join("/", name)
+        entry = loaded.get(full)
+        if entry is None:
+            known = ", ".join(loaded) or "none"
+            return refused(UNKNOWN, f"component {full!r} is not loaded (loaded: {known})")
+        if isinstance(transition, str) and transition.isdigit():
+            transition = int(transition)
+        tid = resolve_transition(entry.state, transition)
+        if tid is None:
+            allowed = ", ".join(
+                f"{d.label} [{d.transition}]" for d in available_transitions(entry.state)
+            )
+            outcome = refused(
+                entry.state,
+                f"component {full!r} is {STATE_LABELS[entry.state]}: no transition "
+                f"{transition!r} from there (available: {allowed or 'none'})",
+            )
+        else:
+            running = self._state.running
+            self._state.running = False  # hooks, not update: self.log.nonrt is fine
+            try:
+                outcome = self._transition(entry, tid)
+            finally:
+                self._state.running = running
+        level = LogLevel.INFO if outcome.ok else LogLevel.ERROR
+        self._notices.log(level, full, "lifecycle: " + outcome.describe())
+        if outcome.result != REFUSED:
+            self.announce(full, outcome)
+        return outcome
+
+    def announce(self, name: str, outcome: TransitionOutcome) -> None:
+        for listener in self.listeners:
+            listener(name, outcome)
+
+    def start(self, order: Sequence[str]) -> None:
+        """Activate (``start``) the components loaded since the loop last started, in
+        ``order``. One that a lifecycle transition left inactive stays so."""
+        loaded = self._components.entries
+        started = False
+        standing_by = self._components.fallbacks()  # a fallback starts when its primary fails
+        for name in order:
+            entry = loaded.get(name)
+            if entry is None:  # another lane's
+                continue
+            if entry.state != INACTIVE or not entry.autostart or name in standing_by:
+                continue
+            try:
+                self._notices.observe(name, "start")
+                ok = entry.component.start()
+            except Exception as exc:
+                self._notices.drain()
+                raise ComponentError(
+                    f"component {name!r}: start() raised {type(exc).__name__}: {exc}",
+                    component=name,
+                ) from exc
+            if ok is False:
+                self._notices.drain()
+                raise ComponentError(f"component {name!r}: start() returned False", component=name)
+            entry.state = ACTIVE
+            started = True
+            self.announce(name, TransitionOutcome(ACTIVATE, INACTIVE, ACTIVE, SUCCESS))
+        if started:
+            self._replan()
+        self._notices.drain()
+
+    def teardown(self, entries: Iterable[Loaded]) -> list[ComponentError]:
+        """Stop and clean up components taken out (unloaded, or shut down), in the order
+        given; every hook runs even if another one fails; the failures are returned."""
+        errors: list[ComponentError] = []
+        for entry in entries:
+            name = entry.spec.full_name
+            hooks = _TEARDOWN.get(entry.state, ())
+            for hook in hooks:
+                try:
+                    self._notices.observe(name, hook)
+                    getattr(entry.component, hook)()
+                except Exception as exc:
+                    err = ComponentError(
+                        f"component {name!r}: {hook}() raised {type(exc).__name__}: {exc}",
+                        component=name,
+                    )
+                    err.__cause__ = exc
+                    errors.append(err)
+            entry.state = FINALIZED
+        self._notices.drain()
+        return errors
+
+    def _transition(self, entry: Loaded, tid: int) -> TransitionOutcome:
+        _, start, via = REQUESTS[tid]
+        entry.autostart = False  # from now on it stays where it was put
+        entry.state = via
+        if start == ACTIVE:
+            self._replan()  # out of the schedule before its hooks run
+        cleanup_tried = False
+        if tid == CONFIGURE:
+            result, reason = self._reconfigure(entry)
+        elif tid == CLEANUP:
+            result, reason = self._hook(entry, "cleanup")
+            cleanup_tried = True
+        elif tid == ACTIVATE:
+            result, reason = self._hook(entry, "start")
+        elif tid == DEACTIVATE:
+            result, reason = self._hook(entry, "stop")
+        else:  # shutdown: every hook the component needs, whatever one returned
+            result, reason = SUCCESS, ""
+            if start == ACTIVE:
+                result, reason = self._hook(entry, "stop")
+            if start != UNCONFIGURED and result != ERROR:
+                cleaned, why = self._hook(entry, "cleanup")
+                cleanup_tried = True
+                if cleaned != SUCCESS:
+                    result, reason = cleaned, "; ".join(r for r in (reason, why) if r)
+        _, end = RESULTS[(via, result)]
+        error_result = ""
+        if end == ERRORPROCESSING:
+            entry.state = ERRORPROCESSING
+            if cleanup_tried:
+                error_result = FAILURE
+                reason += "; error processing: cleanup() failed already, so it is finalized"
+            else:
+                error_result, why = self._hook(entry, "cleanup")
+                if why:
+                    reason += "; error processing: " + why
+            end = RESULTS[(ERRORPROCESSING, error_result)][1]
+        entry.state = end
+        if end == ACTIVE or start == ACTIVE:
+            self._replan()
+        return TransitionOutcome(tid, start, end, result, error_result, reason)
+
+    def _hook(self, entry: Loaded, hook: str) -> tuple[str, str]:
+        """Run a lifecycle hook: success, failure (returned False) or error (raised)."""
+        try:
+            self._notices.observe(entry.spec.full_name, hook)
+            ok = getattr(entry.component, hook)()
+        except Exception as exc:
+            return ERROR, f"{hook}() raised {type(exc).__name__}: {exc}"
+        if ok is False:
+            return FAILURE, f"{hook}() returned False"
+        return SUCCESS, ""
+
+    def _reconfigure(self, entry: Loaded) -> tuple[str, str]:
+        """configure() again: it must declare the ports and tunables of the first time."""
+        comp = entry.component
+        params = comp.params
+        first = params.declared
+        comp._rtcf_redeclared = set()
+        comp._rtcf_configured = False
+        params.previous, params.declared, params.sealed = first, {}, False
+        try:
+            result, reason = self._hook(entry, "configure")
+            if result == SUCCESS:
+                ports = set(comp._rtcf_inputs) | set(comp._rtcf_outputs)
+                missing = [f"port {n!r}" for n in sorted(ports - comp._rtcf_redeclared)]
+                missing += [
+                    f"tunable parameter {n!r}" for n in sorted(set(first) - set(params.declared))
+                ]
+                if missing:
+                    result, reason = ERROR, (
+                        f"configure() did not declare {', '.join(missing)} again; configured "
+                        "again, a component must declare the same ports and tunable parameters"
+                    )
+        finally:
+            comp._rtcf_redeclared = None
+            comp._rtcf_configured = True
+            params.previous, params.declared, params.sealed = None, first, True
+        return result, reason
+
+
+# what unloading or shutting down runs, by lifecycle state (a transition state: a hook
+# of it failed and error processing is under way; nothing more runs then)
+_TEARDOWN = {ACTIVE: ("stop", "cleanup"), INACTIVE: ("cleanup",)}
