@@ -13,21 +13,16 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from ._clock import Clock, MonotonicClock
-from ._component import Component, overrides
+from ._component import Component
 from ._components import Components, ComponentSpec
+from ._containment import Containment
 from ._errors import ComponentError, ConfigurationError, LoopError, RtcfError
 from ._executor import ABORT, StopFlag, UpdateFailure
-from ._faults import DEACTIVATE as ON_ERROR_DEACTIVATE
 from ._faults import (
-    LET_OVERRUNS,
-    RAISED,
-    FailurePolicy,
     Fault,
     SafeStopOutcome,
     WatchdogTripped,
-    downstream,
 )
-from ._faults import RESTART as ON_ERROR_RESTART
 from ._graph import Graph, GraphNode
 from ._lane_names import MAIN_LANE
 from ._lanes import (
@@ -36,10 +31,6 @@ from ._lanes import (
     Step,
 )
 from ._lifecycle import (
-    ACTIVE,
-    DEACTIVATE,
-    INACTIVE,
-    SUCCESS,
     TransitionOutcome,
 )
 from ._log import LogLevel, LogRecord, LogRing, PythonLoggingSink, RecordSink
@@ -77,10 +68,6 @@ class RunResult:
     # inputs mapped to the middleware (by a supervisor): per topic, the messages that
     # arrived, those the loop read, and those a newer one replaced before it read them
     inputs: dict[str, dict[str, int]] = field(default_factory=dict)
-
-
-class _LetOverruns(Exception):
-    """What a LET lane's component "raised": its windows overran (max_let_overruns)."""
 
 
 class Runner:
@@ -129,9 +116,15 @@ class Runner:
         self._transitions = Transitions(
             self._components, self.state, self._notices, self._schedule.replan
         )
-        self.faults: list[Fault] = []  # contained failures of this runner's life
-        self.on_fault: Callable[[Fault], None] | None = None  # a worker counts them
-        self.safe_stops: list[SafeStopOutcome] = []  # of the last safe stop
+        self._containment = Containment(
+            name,
+            self._components,
+            self._topology,
+            self._schedule,
+            self._transitions,
+            self.state,
+            self._notices,
+        )
 
     # -- loading ------------------------------------------------------------
     @property
@@ -433,8 +426,9 @@ class Runner:
         if self._owns_stop_flag:
             self.stop_flag.clear()
         ran = 0
-        faults_before = len(self.faults)
-        self.safe_stops = []
+        containment = self._containment
+        faults_before = len(containment.faults)
+        containment.safe_stops = []
         try:
             while True:
                 first = self.state.iteration + 1
@@ -444,18 +438,18 @@ class Runner:
                     break
                 except UpdateFailure as failure:
                     ran += failure.iteration - first + 1  # the failed one used its slot
-                    self._contain(failure)  # raises when the loop must end
+                    containment.contain(failure)  # raises when the loop must end
                     if iterations is not None and ran >= iterations:
                         break
                 except WatchdogTripped as trip:
-                    if not self._contain_let_overruns(trip):
+                    if not containment.contain_let_overruns(trip):
                         raise
                     ran += trip.iteration - first + 1
                     if iterations is not None and ran >= iterations:
                         break
         except WatchdogTripped as trip:
             self._notices.drain()
-            self.safe_stop(trip.describe())
+            containment.safe_stop(trip.describe())
             lane = f", lane {self.lane!r}" if self.lane not in (None, "", MAIN_LANE) else ""
             raise LoopError(f"runner {self.name!r}{lane}: {trip.describe()}") from None
         finally:
@@ -468,7 +462,7 @@ class Runner:
         stopped_by = "count" if iterations is not None and ran >= iterations else "stop"
         if self.stop_flag.cell[0] == ABORT:
             stopped_by = "abort"
-            self.safe_stop("the loop was stopped abnormally (a signal, or the supervisor)")
+            containment.safe_stop("the loop was stopped abnormally (a signal, or the supervisor)")
         if aggregate is not None:
             aggregate.finish(timing_ring, self._schedule.labels)
             timing = aggregate.summary(writer.count, writer.overruns)
@@ -482,165 +476,9 @@ class Runner:
             log_records_dropped=self._notices.ring.dropped,
             simulated=bool(getattr(self.clock, "simulated", False)),
             aggregate=aggregate,
-            faults=self.faults[faults_before:],
-            safe_stops=list(self.safe_stops),
+            faults=containment.faults[faults_before:],
+            safe_stops=list(containment.safe_stops),
         )
-
-    # -- faults ---------------------------------------------------------------
-    def _contain(self, failure: UpdateFailure) -> None:
-        """Apply the failed component's policy; raise ComponentError if the loop ends."""
-        self._notices.drain()
-        name = self._schedule.labels[failure.index]
-        entry = self._components.entries.get(name)
-        if entry is None:  # a lane's handover, not a component: a bug or bad data
-            self.safe_stop(f"the lane handover {name!r} failed")
-            exc = failure.error
-            raise LoopError(
-                f"runner {self.name!r}: lane handover {name!r} raised {type(exc).__name__}: "
-                f"{exc} at iteration {failure.iteration}; the loop was stopped"
-            ) from exc
-        exc = failure.error
-        cause = LET_OVERRUNS if isinstance(exc, _LetOverruns) else RAISED
-        error = (
-            str(exc) if cause == LET_OVERRUNS
-            else type(exc).__name__ + (f": {exc}" if str(exc) else "")
-        )
-        policy = entry.spec.policy
-        fatal = not isinstance(exc, Exception)  # SystemExit, KeyboardInterrupt: always stop
-        if fatal or policy.on_error not in (ON_ERROR_DEACTIVATE, ON_ERROR_RESTART):
-            self.safe_stop(f"component {name!r} failed")
-            raise ComponentError(
-                f"component {name!r}: update() raised {error} "
-                f"at iteration {failure.iteration} (t={failure.time_ns * 1e-9:.6f} s); "
-                "the loop was stopped",
-                component=name,
-            ) from exc
-        if policy.on_error == ON_ERROR_RESTART and entry.restarts < policy.max_restarts:
-            entry.restarts += 1
-            if self._restart(name):
-                self._record(Fault(name, failure.iteration, error, "restarted", cause=cause))
-                return
-        self._take_out(name, failure.iteration, error, policy, cause)
-
-    def _contain_let_overruns(self, trip: WatchdogTripped) -> bool:
-        """A lane on logical execution time overran more windows than
-        ``max_let_overruns``: its active components' ``on_error`` policies apply, as if
-        their update had failed (deactivate: out of the schedule, a fallback in the
-        lane takes over; restart). False when one of them stops the loop."""
-        if trip.limit != "max_let_overruns":
-            return False
-        loaded = self._components.entries
-        names = [n for n in self._schedule.labels if n in loaded and loaded[n].state == ACTIVE]
-        policies = {loaded[n].spec.policy.on_error for n in names}
-        if not names or not policies <= {ON_ERROR_DEACTIVATE, ON_ERROR_RESTART}:
-            return False
-        self.state.iteration = trip.resume  # on the grid again: the next release
-        what = trip.describe().replace("; the loop was stopped", "")
-        for name in names:
-            if self._components.entries[name].state != ACTIVE:  # taken out with another one
-                continue
-            self._contain(UpdateFailure(
-                self._schedule.labels.index(name), trip.iteration, self.state.time_ns,
-                _LetOverruns(what),
-            ))
-        return True
-
-    def _restart(self, name: str) -> bool:
-        """Clean up, configure and start a component again (lifecycle transitions)."""
-        for transition in ("deactivate", "cleanup", "configure", "activate"):
-            if not self._transitions.change(name, transition).ok:
-                return False
-        return True
-
-    def _take_out(
-        self, name: str, iteration: int, error: str, policy: FailurePolicy, cause: str,
-    ) -> None:
-        """Take ``name`` and what reads its outputs out of the schedule; safe-stop them."""
-        edges = [(e.producer.component, e.consumer.component) for e in self.graph.edges]
-        order = self.graph.order
-        fallback = policy.fallback if policy.fallback in self._components.entries else ""
-        if fallback and self._components.entries[fallback].state != INACTIVE:
-            fallback = ""  # not ready to take over (failed itself, or unconfigured)
-        # with a fallback, what reads the failed component's outputs goes on
-        affected = [name] if fallback else downstream(name, edges)
-        # (another lane's components take their inputs as they stand: the values stop)
-        victims = [
-            n
-            for n in affected
-            if n == name
-            or (n in self._components.entries and self._components.entries[n].state == ACTIVE)
-        ]
-        taken = []
-        for n in victims:
-            entry = self._components.entries[n]
-            entry.autostart = False
-            if entry.state == ACTIVE:
-                entry.state = INACTIVE
-                taken.append(n)
-        self._schedule.replan()
-        for n in taken:  # as a deactivation (safe_stop runs, not stop)
-            why = f"on_error: deactivate, after {name!r} failed: {error}"
-            self._transitions.announce(
-                n, TransitionOutcome(DEACTIVATE, ACTIVE, INACTIVE, SUCCESS, "", why)
-            )
-        self._run_safe_stops(sorted(victims, key=order.index, reverse=True))
-        if fallback and not self._transitions.change(fallback, "activate").ok:
-            fallback = ""
-        self._record(Fault(name, iteration, error, "deactivated", victims, fallback, cause))
-
-    def _record(self, fault: Fault) -> None:
-        self.faults.append(fault)
-        self._notices.log(LogLevel.ERROR, fault.component, fault.describe())
-        if self.on_fault is not None:
-            self.on_fault(fault)
-
-    def safe_stop(self, reason: str = "") -> list[SafeStopOutcome]:
-        """Run every active component's ``safe_stop``, last in the order first.
-
-        Each runs on its own: one that raises or returns False is reported and the
-        others still run. The outcomes are returned, logged, and kept in
-        :attr:`safe_stops` (and in the run's result).
-        """
-        try:
-            order = self.graph.order
-        except RtcfError:
-            order = list(self._components.entries)
-        names = [
-            n
-            for n in reversed(order)
-            if n in self._components.entries and self._components.entries[n].state == ACTIVE
-        ]
-        if reason:
-            self._notices.log(LogLevel.WARNING, self.name, f"safe stop: {reason}")
-        return self._run_safe_stops(names)
-
-    def _run_safe_stops(self, names: Sequence[str]) -> list[SafeStopOutcome]:
-        outcomes = []
-        running = self.state.running
-        self.state.running = False  # a hook, not update: self.log.nonrt is fine
-        try:
-            for name in names:
-                component = self._components.entries[name].component
-                if not overrides(component, "safe_stop"):
-                    continue
-                try:
-                    self._notices.observe(name, "safe_stop")
-                    ok = component.safe_stop()
-                    outcome = SafeStopOutcome(name, ok is not False, "returned False")
-                except BaseException as exc:  # each runs on its own, whatever it raised
-                    outcome = SafeStopOutcome(
-                        name, False, f"raised {type(exc).__name__}: {exc}"
-                    )
-                if outcome.ok:
-                    outcome.detail = ""
-                outcomes.append(outcome)
-                level = LogLevel.INFO if outcome.ok else LogLevel.ERROR
-                self._notices.log(level, name, outcome.describe())
-        finally:
-            self.state.running = running
-        self.safe_stops.extend(outcomes)
-        self._notices.drain()
-        return outcomes
 
     def _idle_hook(
         self,
@@ -669,6 +507,35 @@ class Runner:
     def request_stop(self) -> None:
         """End the loop after the current iteration (safe from a signal handler)."""
         self.stop_flag.set()
+
+    # -- faults ---------------------------------------------------------------
+    def safe_stop(self, reason: str = "") -> list[SafeStopOutcome]:
+        """Run every active component's ``safe_stop``, last in the order first.
+
+        Each runs on its own: one that raises or returns False is reported and the
+        others still run. The outcomes are returned, logged, and kept in
+        :attr:`safe_stops` (and in the run's result).
+        """
+        return self._containment.safe_stop(reason)
+
+    @property
+    def faults(self) -> list[Fault]:
+        """The failures a policy contained in this runner's life."""
+        return self._containment.faults
+
+    @property
+    def safe_stops(self) -> list[SafeStopOutcome]:
+        """The outcomes of the last safe stop."""
+        return self._containment.safe_stops
+
+    @property
+    def on_fault(self) -> Callable[[Fault], None] | None:
+        """Told of each contained failure (a worker counts them)."""
+        return self._containment.on_fault
+
+    @on_fault.setter
+    def on_fault(self, on_fault: Callable[[Fault], None] | None) -> None:
+        self._containment.on_fault = on_fault
 
     def mapped_ports(self) -> tuple[list[OutputPort[Any]], list[InputPort[Any]]]:
         """Outputs whose topic maps to the middleware, and mapped inputs nothing here feeds.
@@ -716,12 +583,8 @@ class Runner:
 
         Every hook runs even if another one fails; the failures are returned.
         """
-        try:
-            order = self.graph.order
-        except RtcfError:
-            order = list(self._components.entries)
         loaded = self._components.entries
-        entries = [loaded[n] for n in reversed(order) if n in loaded]
+        entries = [loaded[n] for n in reversed(self._topology.stopping_order()) if n in loaded]
         self._components.entries.clear()
         self._invalidate()
         return self._transitions.teardown(entries)

@@ -12,7 +12,7 @@ from __future__ import annotations
 from collections.abc import Iterable, Sequence
 
 from ._components import Components
-from ._errors import ConfigurationError
+from ._errors import ConfigurationError, RtcfError
 from ._graph import Graph, GraphNode, build_graph
 from ._lane_names import MAIN_LANE
 from ._lanes import Connection, Lane, Member, Step, lane_steps, lanes_of
@@ -96,6 +96,14 @@ class Topology:
                 )
             self._graph = graph
         return self._graph
+
+    def stopping_order(self) -> list[str]:
+        """The order, or the load order when the graph does not resolve: what stops
+        components (in reverse) must run whatever the graph says."""
+        try:
+            return self.graph.order
+        except RtcfError:
+            return list(self._components.entries)
 
     def lane_plan(self, lane: str | None) -> list[Step]:
         """The steps of ``lane`` (None: the main lane in a runner of every lane)."""
