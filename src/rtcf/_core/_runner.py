@@ -9,22 +9,19 @@ their slots; nothing is looked up by name while the loop runs.
 from __future__ import annotations
 
 from collections.abc import Callable, Iterable, Sequence
-from dataclasses import dataclass, field
 from typing import Any
 
 from ._clock import Clock, MonotonicClock
 from ._component import Component
 from ._components import Components, ComponentSpec
 from ._containment import Containment
-from ._errors import ComponentError, ConfigurationError, LoopError, RtcfError
-from ._executor import ABORT, StopFlag, UpdateFailure
+from ._errors import ComponentError, RtcfError
+from ._executor import StopFlag
 from ._faults import (
     Fault,
     SafeStopOutcome,
-    WatchdogTripped,
 )
 from ._graph import Graph, GraphNode
-from ._lane_names import MAIN_LANE
 from ._lanes import (
     Lane,
     Member,
@@ -34,6 +31,7 @@ from ._lifecycle import (
     TransitionOutcome,
 )
 from ._log import LogLevel, LogRecord, LogRing, PythonLoggingSink, RecordSink
+from ._loop import Loop, RunResult
 from ._loop_state import LoopState
 from ._notices import Notices
 from ._params import ParameterStore
@@ -41,33 +39,9 @@ from ._ports import InputPort, OutputPort, Slot
 from ._rings import Ring
 from ._schedule import Schedule
 from ._settings import RunnerSettings
-from ._timing import TimingAggregate, TimingSummary, TimingWriter, local_ring
 from ._topology import Topology
 from ._transitions import Transitions
 from ._tunables import LIFECYCLE, LOG_LEVEL, PARAMETER
-
-
-@dataclass
-class RunResult:
-    """What one call of :meth:`Runner.run` did."""
-
-    iterations: int
-    stopped_by: str  # "count", "stop" or "abort" (a signal: safe_stop hooks ran)
-    timing: TimingSummary
-    order: list[str]
-    log_records_dropped: int
-    simulated: bool
-    realtime: dict[str, Any] | None = None  # what a worker applied (by a supervisor)
-    # the full histograms (a supervisor's, or the runner's own local ring's)
-    aggregate: TimingAggregate | None = None
-    faults: list[Fault] = field(default_factory=list)  # failures contained by a policy
-    safe_stops: list[SafeStopOutcome] = field(default_factory=list)
-    # lanes in worker processes of their own: per lane other than main, what it did
-    # (iterations, overruns, timing, handovers late or lost, LET overruns)
-    lanes: dict[str, dict[str, Any]] = field(default_factory=dict)
-    # inputs mapped to the middleware (by a supervisor): per topic, the messages that
-    # arrived, those the loop read, and those a newer one replaced before it read them
-    inputs: dict[str, dict[str, int]] = field(default_factory=dict)
 
 
 class Runner:
@@ -100,15 +74,10 @@ class Runner:
             log_sink or PythonLoggingSink(),
             log_emit,
         )
-        # a worker's flag is a shared-memory word the supervisor sets and clears
-        self._owns_stop_flag = stop_flag is None
-        self.stop_flag = stop_flag if stop_flag is not None else StopFlag()
         self.log_level = LogLevel[log_level.upper()] if isinstance(log_level, str) else log_level
-        self._timing_capacity = timing_capacity
         self._components = Components(
             self.settings, self.parameters, self.state, self._notices, self.log_level
         )
-        self._triggered = False
         self._topology = Topology(self._components, self.settings, name)
         self._schedule = Schedule(
             self._components, self._topology, self.settings, self.clock, self.state
@@ -124,6 +93,20 @@ class Runner:
             self._transitions,
             self.state,
             self._notices,
+        )
+        self._loop = Loop(
+            name,
+            self.settings,
+            self.clock,
+            self.state,
+            self._notices,
+            components=self._components,
+            topology=self._topology,
+            schedule=self._schedule,
+            transitions=self._transitions,
+            containment=self._containment,
+            stop_flag=stop_flag,
+            timing_capacity=timing_capacity,
         )
 
     # -- loading ------------------------------------------------------------
@@ -237,10 +220,10 @@ class Runner:
 
     def activate(self) -> None:
         """Allow the loop to run (mode ``wait_for_trigger``; the original's activate_rt_loop)."""
-        self._triggered = True
+        self._loop.triggered = True
 
     def deactivate(self) -> None:
-        self._triggered = False
+        self._loop.triggered = False
 
     @property
     def ready(self) -> bool:
@@ -248,24 +231,13 @@ class Runner:
         return self.not_ready_reason() is None
 
     def not_ready_reason(self) -> str | None:
-        # (with lanes, the components of every lane count)
-        s, n = self.settings, len(self._components.entries) + len(self._topology.foreign_members)
-        if n == 0:
-            return "no component is loaded"
-        if s.mode == "wait_for_components" and n < s.num_components_expected:
-            return (
-                f"mode wait_for_components: {n} of the {s.num_components_expected} expected "
-                "components are loaded (num_components_expected)"
-            )
-        if s.mode == "wait_for_trigger" and not self._triggered:
-            return "mode wait_for_trigger: the loop has not been activated"
-        return None
+        return self._loop.not_ready_reason()
 
     # -- resolving ------------------------------------------------------------
     def _invalidate(self) -> None:
         if self.state.running:
             # loading or unloading stops the loop: it must not call a stale schedule
-            self.stop_flag.set()
+            self._loop.stop_flag.set()
         self._topology.invalidate()
         self._schedule.invalidate()
 
@@ -376,8 +348,7 @@ class Runner:
         """Activate (``start``) the components loaded since the loop last started, in
         execution order; ``run`` does it first. One that a lifecycle transition left
         inactive stays so."""
-        self._schedule.compiled()
-        self._transitions.start(self.graph.order)
+        self._loop.start_components()
 
     # -- running ------------------------------------------------------------
     def run(
@@ -407,106 +378,28 @@ class Runner:
         supervisor that stamps the run's records itself passes its own, so the two
         agree to the nanosecond.
         """
-        reason = self.not_ready_reason()
-        if reason is not None:
-            raise ConfigurationError(f"runner {self.name!r} cannot run: {reason}")
-        executor = self._schedule.compiled()
-        self.start_components()
-        aggregate = None
-        if timing_ring is None:
-            timing_ring = local_ring(len(self._schedule.labels), self._timing_capacity)
-            aggregate = TimingAggregate()
-        writer = TimingWriter(self._schedule.labels, timing_ring)
-        executor.timing = writer
-        executor.feeders = tuple(feeders)
-        executor.ros_offset_ns = ros_offset_ns
-        executor.idle = self._idle_hook(
-            on_iteration, drain_logs_every_iteration, aggregate, timing_ring
-        )
-        if self._owns_stop_flag:
-            self.stop_flag.clear()
-        ran = 0
-        containment = self._containment
-        faults_before = len(containment.faults)
-        containment.safe_stops = []
-        try:
-            while True:
-                first = self.state.iteration + 1
-                try:
-                    left = None if iterations is None else iterations - ran
-                    ran += executor.run(left, self.stop_flag)
-                    break
-                except UpdateFailure as failure:
-                    ran += failure.iteration - first + 1  # the failed one used its slot
-                    containment.contain(failure)  # raises when the loop must end
-                    if iterations is not None and ran >= iterations:
-                        break
-                except WatchdogTripped as trip:
-                    if not containment.contain_let_overruns(trip):
-                        raise
-                    ran += trip.iteration - first + 1
-                    if iterations is not None and ran >= iterations:
-                        break
-        except WatchdogTripped as trip:
-            self._notices.drain()
-            containment.safe_stop(trip.describe())
-            lane = f", lane {self.lane!r}" if self.lane not in (None, "", MAIN_LANE) else ""
-            raise LoopError(f"runner {self.name!r}{lane}: {trip.describe()}") from None
-        finally:
-            executor.idle = None
-            executor.timing = None
-            executor.feeders = ()
-            executor.ros_offset_ns = None
-            writer.release()
-        self._notices.drain()
-        stopped_by = "count" if iterations is not None and ran >= iterations else "stop"
-        if self.stop_flag.cell[0] == ABORT:
-            stopped_by = "abort"
-            containment.safe_stop("the loop was stopped abnormally (a signal, or the supervisor)")
-        if aggregate is not None:
-            aggregate.finish(timing_ring, self._schedule.labels)
-            timing = aggregate.summary(writer.count, writer.overruns)
-        else:
-            timing = TimingSummary(iterations=writer.count, samples=0, overruns=writer.overruns)
-        return RunResult(
-            iterations=ran,
-            stopped_by=stopped_by,
-            timing=timing,
-            order=list(self.graph.order),
-            log_records_dropped=self._notices.ring.dropped,
-            simulated=bool(getattr(self.clock, "simulated", False)),
-            aggregate=aggregate,
-            faults=containment.faults[faults_before:],
-            safe_stops=list(containment.safe_stops),
+        return self._loop.run(
+            iterations,
+            on_iteration,
+            drain_logs_every_iteration,
+            timing_ring,
+            feeders,
+            ros_offset_ns,
         )
 
-    def _idle_hook(
-        self,
-        on_iteration: Callable[[], object] | None,
-        drain: bool,
-        aggregate: TimingAggregate | None,
-        timing_ring: Ring,
-    ) -> Callable[[], object] | None:
-        ring = self._notices.ring if isinstance(self._notices.ring, LogRing) else None
-        sink = self._notices.sink
-        names = self._schedule.labels
-        half = timing_ring.capacity // 2
-        if not drain and aggregate is None:
-            return on_iteration
+    @property
+    def stop_flag(self) -> StopFlag:
+        """The word that stops the loop (a worker's is in shared memory; a worker swaps
+        in its lane link's decision for the runs of a lane)."""
+        return self._loop.stop_flag
 
-        def idle() -> None:
-            if drain and ring is not None and len(ring):
-                ring.drain(sink, 64)
-            if aggregate is not None and len(timing_ring) >= half:
-                aggregate.consume(timing_ring, names)
-            if on_iteration is not None:
-                on_iteration()
-
-        return idle
+    @stop_flag.setter
+    def stop_flag(self, flag: StopFlag) -> None:
+        self._loop.stop_flag = flag
 
     def request_stop(self) -> None:
         """End the loop after the current iteration (safe from a signal handler)."""
-        self.stop_flag.set()
+        self._loop.stop_flag.set()
 
     # -- faults ---------------------------------------------------------------
     def safe_stop(self, reason: str = "") -> list[SafeStopOutcome]:
