@@ -15,7 +15,6 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from ._clock import Clock
-from ._components import Components
 from ._containment import Containment
 from ._errors import ConfigurationError, LoopError
 from ._executor import ABORT, StopFlag, UpdateFailure
@@ -66,7 +65,6 @@ class Loop:
         state: LoopState,
         notices: Notices,
         *,
-        components: Components,
         topology: Topology,
         schedule: Schedule,
         transitions: Transitions,
@@ -79,7 +77,6 @@ class Loop:
         self._clock = clock
         self._state = state
         self._notices = notices
-        self._components = components
         self._topology = topology
         self._schedule = schedule
         self._transitions = transitions
@@ -91,9 +88,7 @@ class Loop:
         self.triggered = False  # mode wait_for_trigger: activated
 
     def not_ready_reason(self) -> str | None:
-        # (with lanes, the components of every lane count)
-        s = self._settings
-        n = len(self._components.entries) + len(self._topology.foreign_members)
+        s, n = self._settings, self._topology.count()  # (with lanes, every lane's count)
         if n == 0:
             return "no component is loaded"
         if s.mode == "wait_for_components" and n < s.num_components_expected:

@@ -4,6 +4,18 @@ Loading or unloading a component stops the loop, re-resolves the graph and, if t
 mode allows, lets it start again, as the original rt_runner does. The compiled
 schedule is a flat tuple of bound ``update`` methods whose ports already share
 their slots; nothing is looked up by name while the loop runs.
+
+:class:`Runner` is the face of the core that its callers use (the worker, the
+command line, :mod:`rtcf.testing`, users): it builds its collaborators, which each
+hold their own state, and passes each call to the one it concerns:
+
+* :mod:`._components`: what is loaded, how it is constructed, described, tuned;
+* :mod:`._transitions`: the components' lifecycle transitions, start and teardown;
+* :mod:`._topology`: the data-flow graph over every lane's components, the lanes;
+* :mod:`._schedule`: the plan of this runner's lane compiled into the Executor;
+* :mod:`._loop`: the run, and whether the mode lets it start;
+* :mod:`._containment`: what a failure's policy does, and the safe stops;
+* :mod:`._notices`: the runner's own log records, and the hooks it tells of.
 """
 
 from __future__ import annotations
@@ -17,19 +29,10 @@ from ._components import Components, ComponentSpec
 from ._containment import Containment
 from ._errors import ComponentError, RtcfError
 from ._executor import StopFlag
-from ._faults import (
-    Fault,
-    SafeStopOutcome,
-)
+from ._faults import Fault, SafeStopOutcome
 from ._graph import Graph, GraphNode
-from ._lanes import (
-    Lane,
-    Member,
-    Step,
-)
-from ._lifecycle import (
-    TransitionOutcome,
-)
+from ._lanes import Lane, Member, Step
+from ._lifecycle import TransitionOutcome
 from ._log import LogLevel, LogRecord, LogRing, PythonLoggingSink, RecordSink
 from ._loop import Loop, RunResult
 from ._loop_state import LoopState
@@ -37,11 +40,14 @@ from ._notices import Notices
 from ._params import ParameterStore
 from ._ports import InputPort, OutputPort, Slot
 from ._rings import Ring
-from ._schedule import Schedule
+from ._schedule import BindHandover, Schedule
 from ._settings import RunnerSettings
 from ._topology import Topology
 from ._transitions import Transitions
 from ._tunables import LIFECYCLE, LOG_LEVEL, PARAMETER
+
+# the runner's request and answer, importable from here as before
+__all__ = ["ComponentSpec", "RunResult", "Runner"]
 
 
 class Runner:
@@ -75,6 +81,7 @@ class Runner:
             log_emit,
         )
         self.log_level = LogLevel[log_level.upper()] if isinstance(log_level, str) else log_level
+        # the collaborators, each given what it needs (none sees the runner itself)
         self._components = Components(
             self.settings, self.parameters, self.state, self._notices, self.log_level
         )
@@ -100,7 +107,6 @@ class Runner:
             self.clock,
             self.state,
             self._notices,
-            components=self._components,
             topology=self._topology,
             schedule=self._schedule,
             transitions=self._transitions,
@@ -109,9 +115,10 @@ class Runner:
             timing_capacity=timing_capacity,
         )
 
-    # -- loading ------------------------------------------------------------
+    # -- what is loaded, and how it is wired (Components) ---------------------------
     @property
     def components(self) -> dict[str, Component]:
+        """The loaded components by full name, in load order."""
         return self._components.by_name()
 
     def load(self, spec: ComponentSpec) -> Component:
@@ -128,7 +135,6 @@ class Runner:
         if errors:
             raise errors[0]
 
-    # -- tuning ---------------------------------------------------------------
     def describe_component(self, name: str) -> dict[str, Any]:
         """A loaded component as tools show it: type, ports, parameters, tunables."""
         return self._components.describe(name)
@@ -187,7 +193,30 @@ class Runner:
             entry.component.log.level = int(value)
         return None
 
-    # -- lifecycle ------------------------------------------------------------------
+    def fallbacks(self) -> dict[str, str]:
+        """Loaded fallback components and the component each stands in for (on_error)."""
+        return self._components.fallbacks()
+
+    def graph_nodes(self) -> list[GraphNode]:
+        """A node per component; a fallback's inputs count as its primary's (it runs in
+        the primary's place in the order, and writes the primary's outputs)."""
+        return self._components.graph_nodes()
+
+    def members(self) -> list[Member]:
+        """What the other lanes must know of this runner's components (with
+        :meth:`graph_nodes`): lane, rate, cost, whether the loop calls them."""
+        return self._components.members()
+
+    def mapped_ports(self) -> tuple[list[OutputPort[Any]], list[InputPort[Any]]]:
+        """Outputs whose topic maps to the middleware, and mapped inputs nothing here feeds.
+
+        An input whose topic a component inside the runner produces is never fed from
+        the middleware: that would be a second, non-real-time writer.
+        """
+        self._schedule.compiled()  # the ports are connected
+        return self._components.mapped_ports()
+
+    # -- lifecycle transitions (Transitions) ----------------------------------------
     def lifecycle_state(self, name: str) -> str:
         """A loaded component's lifecycle state: ``active``, ``inactive``, ``unconfigured``
         or ``finalized`` (a ROS 2 managed node's labels)."""
@@ -218,43 +247,30 @@ class Runner:
     ) -> None:
         self._transitions.listeners = listeners
 
-    def activate(self) -> None:
-        """Allow the loop to run (mode ``wait_for_trigger``; the original's activate_rt_loop)."""
-        self._loop.triggered = True
+    def start_components(self) -> None:
+        """Activate (``start``) the components loaded since the loop last started, in
+        execution order; ``run`` does it first. One that a lifecycle transition left
+        inactive stays so."""
+        self._loop.start_components()
 
-    def deactivate(self) -> None:
-        self._loop.triggered = False
+    # -- the graph over every lane (Topology) ---------------------------------------
+    @property
+    def graph(self) -> Graph:
+        """The resolved data-flow graph (built on demand after loads and unloads): of
+        every lane's components, this process's and the others'."""
+        return self._topology.graph
 
     @property
-    def ready(self) -> bool:
-        """Whether the mode lets the loop run now."""
-        return self.not_ready_reason() is None
+    def order(self) -> list[str]:
+        return list(self.graph.order)
 
-    def not_ready_reason(self) -> str | None:
-        return self._loop.not_ready_reason()
+    def lanes(self) -> dict[str, Lane]:
+        """Every lane with its members in the data-flow order, main first."""
+        return self._topology.lanes()
 
-    # -- resolving ------------------------------------------------------------
-    def _invalidate(self) -> None:
-        if self.state.running:
-            # loading or unloading stops the loop: it must not call a stale schedule
-            self._loop.stop_flag.set()
-        self._topology.invalidate()
-        self._schedule.invalidate()
-
-    def fallbacks(self) -> dict[str, str]:
-        """Loaded fallback components and the component each stands in for (on_error)."""
-        return self._components.fallbacks()
-
-    def graph_nodes(self) -> list[GraphNode]:
-        """A node per component; a fallback's inputs count as its primary's (it runs in
-        the primary's place in the order, and writes the primary's outputs)."""
-        return self._components.graph_nodes()
-
-    # -- lanes ----------------------------------------------------------------------
-    def members(self) -> list[Member]:
-        """What the other lanes must know of this runner's components (with
-        :meth:`graph_nodes`): lane, rate, cost, whether the loop calls them."""
-        return self._components.members()
+    def lane_plan(self) -> list[Step]:
+        """The steps of this runner's lane (the main lane in a runner of every lane)."""
+        return self._topology.lane_plan(self._schedule.lane)
 
     def set_foreign(
         self,
@@ -269,10 +285,7 @@ class Runner:
         self._topology.set_foreign(nodes, members, mirror)
         self._invalidate()
 
-    def recompile(self) -> None:
-        """Compile the plan again before the next run (new handovers were bound)."""
-        self._invalidate()
-
+    # -- the compiled plan (Schedule) -----------------------------------------------
     @property
     def lane(self) -> str | None:
         """The lane this runner runs (None: every lane, in this process)."""
@@ -283,15 +296,13 @@ class Runner:
         self._schedule.lane = lane
 
     @property
-    def handovers(self) -> Callable[[Step, OutputPort[Any]], Callable[[], object]] | None:
+    def handovers(self) -> BindHandover | None:
         """What makes a handover step of a lane plan (the runtime's shared memory),
         bound to the port whose slot it fills or reads."""
         return self._schedule.handovers
 
     @handovers.setter
-    def handovers(
-        self, handovers: Callable[[Step, OutputPort[Any]], Callable[[], object]] | None
-    ) -> None:
+    def handovers(self, handovers: BindHandover | None) -> None:
         self._schedule.handovers = handovers
 
     @property
@@ -303,9 +314,37 @@ class Runner:
     def running_cell(self, cell: Any) -> None:
         self._schedule.running_cell = cell
 
+    def recompile(self) -> None:
+        """Compile the plan again before the next run (new handovers were bound)."""
+        self._invalidate()
+
+    def _invalidate(self) -> None:
+        """What the plan is built from changed: resolve and compile again before the
+        next use."""
+        if self.state.running:
+            # loading or unloading stops the loop: it must not call a stale schedule
+            self._loop.stop_flag.set()
+        self._topology.invalidate()
+        self._schedule.invalidate()
+
+    @property
+    def schedule(self) -> list[str]:
+        """Components whose update the loop calls, in order (those that override it)."""
+        self._schedule.compiled()
+        return list(self._schedule.labels)
+
+    def rate_plan(self) -> list[str] | None:
+        """The multi-rate plan as a table (components x phases of the hyperperiod) with
+        each phase's cost, or None when every component runs every iteration."""
+        return self._schedule.rate_plan()
+
     def foreign_slots(self) -> dict[str, Slot]:
         """The slots that hold the values of other lanes' topics in this process."""
         return self._schedule.foreign_slots()
+
+    def visible_slots(self) -> dict[str, Slot]:
+        """The slots other lanes read a LET lane's outputs from (a trace samples these)."""
+        return self._schedule.visible_slots()
 
     @property
     def missed_releases(self) -> int:
@@ -322,35 +361,23 @@ class Runner:
         ``origin_ns``: where every lane of a run starts together."""
         self._schedule.resume_at(iteration, deadline_ns, origin_ns)
 
-    def lanes(self) -> dict[str, Lane]:
-        """Every lane with its members in the data-flow order, main first."""
-        return self._topology.lanes()
+    # -- the run (Loop) -------------------------------------------------------------
+    def activate(self) -> None:
+        """Allow the loop to run (mode ``wait_for_trigger``; the original's activate_rt_loop)."""
+        self._loop.triggered = True
+
+    def deactivate(self) -> None:
+        self._loop.triggered = False
 
     @property
-    def graph(self) -> Graph:
-        """The resolved data-flow graph (built on demand after loads and unloads): of
-        every lane's components, this process's and the others'."""
-        return self._topology.graph
+    def ready(self) -> bool:
+        """Whether the mode lets the loop run now."""
+        return self.not_ready_reason() is None
 
-    def lane_plan(self) -> list[Step]:
-        """The steps of this runner's lane (the main lane in a runner of every lane)."""
-        return self._topology.lane_plan(self._schedule.lane)
+    def not_ready_reason(self) -> str | None:
+        """Why the mode does not let the loop run now (None: it does)."""
+        return self._loop.not_ready_reason()
 
-    def visible_slots(self) -> dict[str, Slot]:
-        """The slots other lanes read a LET lane's outputs from (a trace samples these)."""
-        return self._schedule.visible_slots()
-
-    @property
-    def order(self) -> list[str]:
-        return list(self.graph.order)
-
-    def start_components(self) -> None:
-        """Activate (``start``) the components loaded since the loop last started, in
-        execution order; ``run`` does it first. One that a lifecycle transition left
-        inactive stays so."""
-        self._loop.start_components()
-
-    # -- running ------------------------------------------------------------
     def run(
         self,
         iterations: int | None = None,
@@ -401,7 +428,7 @@ class Runner:
         """End the loop after the current iteration (safe from a signal handler)."""
         self._loop.stop_flag.set()
 
-    # -- faults ---------------------------------------------------------------
+    # -- faults and safe stops (Containment) ----------------------------------------
     def safe_stop(self, reason: str = "") -> list[SafeStopOutcome]:
         """Run every active component's ``safe_stop``, last in the order first.
 
@@ -430,26 +457,7 @@ class Runner:
     def on_fault(self, on_fault: Callable[[Fault], None] | None) -> None:
         self._containment.on_fault = on_fault
 
-    def mapped_ports(self) -> tuple[list[OutputPort[Any]], list[InputPort[Any]]]:
-        """Outputs whose topic maps to the middleware, and mapped inputs nothing here feeds.
-
-        An input whose topic a component inside the runner produces is never fed from
-        the middleware: that would be a second, non-real-time writer.
-        """
-        self._schedule.compiled()  # the ports are connected
-        return self._components.mapped_ports()
-
-    def rate_plan(self) -> list[str] | None:
-        """The multi-rate plan as a table (components x phases of the hyperperiod) with
-        each phase's cost, or None when every component runs every iteration."""
-        return self._schedule.rate_plan()
-
-    @property
-    def schedule(self) -> list[str]:
-        """Components whose update the loop calls, in order (those that override it)."""
-        self._schedule.compiled()
-        return list(self._schedule.labels)
-
+    # -- logs and hooks told outside the loop (Notices) -----------------------------
     def drain_logs(self) -> int:
         return self._notices.drain()
 
@@ -471,6 +479,7 @@ class Runner:
     def hook_observer(self, observer: Callable[[str, str], None] | None) -> None:
         self._notices.observer = observer
 
+    # -- teardown -------------------------------------------------------------------
     def shutdown(self) -> list[ComponentError]:
         """Stop and clean up every component, last in the order first.
 

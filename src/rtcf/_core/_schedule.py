@@ -26,6 +26,9 @@ from ._rates import plan_table, spread
 from ._settings import RunnerSettings
 from ._topology import Topology
 
+# makes the step of a handover, bound to the port whose slot it fills or reads
+BindHandover = Callable[[Step, OutputPort[Any]], Callable[[], object]]
+
 
 class Schedule:
     """The compiled plan of this runner's lane, and what compiling it made."""
@@ -47,7 +50,7 @@ class Schedule:
         # a handover step of a lane plan (the runtime's shared memory), bound to the
         # port whose slot it fills or reads
         self.lane: str | None = None
-        self.handovers: Callable[[Step, OutputPort[Any]], Callable[[], object]] | None = None
+        self.handovers: BindHandover | None = None
         # the executor's running-component word (a worker passes a shared-memory one)
         self.running_cell: Any = None
         self.executor: Executor | None = None  # None: compiled before the next use

@@ -34,10 +34,7 @@ class Topology:
         self._graph: Graph | None = None
 
     def set_foreign(
-        self,
-        nodes: Sequence[GraphNode],
-        members: Sequence[Member],
-        mirror: Iterable[str] = (),
+        self, nodes: Sequence[GraphNode], members: Sequence[Member], mirror: Iterable[str]
     ) -> None:
         self.foreign_nodes = list(nodes)
         self.foreign_members = list(members)
@@ -45,6 +42,10 @@ class Topology:
 
     def invalidate(self) -> None:
         self._graph = None
+
+    def count(self) -> int:
+        """How many components every lane holds, this process's and the others'."""
+        return len(self._components.entries) + len(self.foreign_members)
 
     def members(self) -> list[Member]:
         """Every lane's members: this process's, then the others'."""
