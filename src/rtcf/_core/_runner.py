@@ -80,10 +80,10 @@ class Runner:
             log_sink or PythonLoggingSink(),
             log_emit,
         )
-        self.log_level = LogLevel[log_level.upper()] if isinstance(log_level, str) else log_level
+        level = LogLevel[log_level.upper()] if isinstance(log_level, str) else log_level
         # the collaborators, each given what it needs (none sees the runner itself)
         self._components = Components(
-            self.settings, self.parameters, self.state, self._notices, self.log_level
+            self.settings, self.parameters, self.state, self._notices, level
         )
         self._topology = Topology(self._components, self.settings, name)
         self._schedule = Schedule(
@@ -120,6 +120,15 @@ class Runner:
     def components(self) -> dict[str, Component]:
         """The loaded components by full name, in load order."""
         return self._components.by_name()
+
+    @property
+    def log_level(self) -> int:
+        """A component's log level when it is loaded, unless its spec gives one."""
+        return self._components.log_level
+
+    @log_level.setter
+    def log_level(self, level: int) -> None:
+        self._components.log_level = level
 
     def load(self, spec: ComponentSpec) -> Component:
         """Construct and configure a component; the loop re-resolves before it next runs."""
