@@ -27,9 +27,9 @@ import ctypes
 import os
 import platform
 from collections.abc import Callable
-from types import TracebackType
 from typing import TYPE_CHECKING, Any
 
+from ._closing import Closing
 from ._hotpath import RingGate, WordTap
 
 if TYPE_CHECKING:
@@ -159,7 +159,7 @@ _R_TAIL = 16
 _RING_HEADER = 3 * _CACHE_LINE
 
 
-class Ring:
+class Ring(Closing):
     """Bounded lock-free single-producer/single-consumer ring of fixed-size records.
 
     It lives in a buffer (usually a Segment's buf, possibly at an offset; or a
@@ -223,17 +223,6 @@ class Ring:
     def close(self) -> None:
         """Release the views into the buffer (so its Segment can close). Idempotent."""
         _release(self._ctl, self.data)
-
-    def __enter__(self) -> Ring:
-        return self
-
-    def __exit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        tb: TracebackType | None,
-    ) -> None:
-        self.close()
 
     # -- producer side ---------------------------------------------------------
 
@@ -449,7 +438,7 @@ def _mailbox_stride(size: int) -> int:
     return _CACHE_LINE + _round_up(size, _CACHE_LINE)
 
 
-class Mailbox:
+class Mailbox(Closing):
     """Latest-value mailbox (seqlock), single writer, single reader, for state.
 
     Two buffers: the writer fills the one the reader is not on, then publishes it,
@@ -507,17 +496,6 @@ class Mailbox:
     def close(self) -> None:
         """Release the views into the buffer (so its Segment can close). Idempotent."""
         _release(self._ctl, *self._meta, *self._payload)
-
-    def __enter__(self) -> Mailbox:
-        return self
-
-    def __exit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        tb: TracebackType | None,
-    ) -> None:
-        self.close()
 
     def write(self, data: ReadableBuffer) -> None:
         """Publish a new value (at most ``size`` bytes). Single writer."""

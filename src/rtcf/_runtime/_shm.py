@@ -20,8 +20,9 @@ import socket
 import stat
 from dataclasses import dataclass
 from multiprocessing.connection import Connection
-from types import TracebackType
 from typing import Any
+
+from .._core._closing import Closing
 
 __all__ = ["Passed", "Segment", "outgoing", "receive_segments", "send_segments"]
 
@@ -29,7 +30,7 @@ __all__ = ["Passed", "Segment", "outgoing", "receive_segments", "send_segments"]
 _SEALS = fcntl.F_SEAL_SHRINK | fcntl.F_SEAL_GROW | fcntl.F_SEAL_SEAL
 
 
-class Segment:
+class Segment(Closing):
     """Anonymous shared memory of a fixed size, shared by passing :attr:`fd`.
 
     ``name`` is a label for messages and ``/proc/<pid>/fd`` (``/memfd:<name>``), not a
@@ -144,17 +145,6 @@ class Segment:
                 "released first (view.release(), ring.close(), mailbox.close())"
             ) from None
         self._mmap = None
-
-    def __enter__(self) -> Segment:
-        return self
-
-    def __exit__(
-        self,
-        exc_type: type[BaseException] | None,
-        exc: BaseException | None,
-        tb: TracebackType | None,
-    ) -> None:
-        self.close()
 
     def __repr__(self) -> str:
         state = "closed" if self._mmap is None else f"{self.size} bytes"
