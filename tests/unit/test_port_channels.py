@@ -1,5 +1,7 @@
 """Both ends of a run's port channels, in one process (the worker's and the supervisor's)."""
 
+from contextlib import contextmanager
+
 import pytest
 
 from rtcf._core._ports import InputPort, OutputPort
@@ -35,44 +37,53 @@ def _supervisor_side(buf, ports):
     return channels
 
 
-def test_writes_push_records_and_the_doorbell_rings_once_after_the_iteration():
-    out, inp = _ports()
-    ports = mapped_ports([out], [inp])
+@contextmanager
+def _both_ends(outputs, inputs, doorbell=None, arrived=None):
+    """A run's port channels: the worker's WorkerPorts and the supervisor's channels by
+    topic, released on the way out (the worker's first). ``arrived``: messages by topic
+    that the supervisor's side writes before the worker sets up its run."""
+    ports = mapped_ports(outputs, inputs)
     buf = memoryview(bytearray(segment_size(ports)))
     channels = _supervisor_side(buf, ports)
-    bell = Doorbell.create()
-    worker = WorkerPorts(buf, ports, [out], [inp], doorbell=bell)
+    for topic, message in (arrived or {}).items():
+        channels[topic].write(message)
+    worker = WorkerPorts(buf, ports, outputs, inputs, doorbell=doorbell)
     try:
-        worker.ring_if_pushed()  # nothing written: no ring
-        assert bell.wait(0.0) is False
-        out.write(2.5)
-        out.write(3.5)
-        assert bell.wait(0.0) is False  # not during the iteration
-        worker.ring_if_pushed()
-        assert bell.wait(1.0) is True
-        ring = channels["/ros/out"]
-        start, n = ring.pending()
-        assert n == 2
-        assert codec_for(float).decode(read_record(ring, start)) == 2.5
-        assert codec_for(float).decode(read_record(ring, start + 1)) == 3.5
-        ring.release(n)
-        worker.ring_if_pushed()  # rung once per iteration that wrote
-        assert bell.wait(0.0) is False
+        yield worker, channels
     finally:
         worker.release()
         for channel in channels.values():
             channel.close()
+
+
+def test_writes_push_records_and_the_doorbell_rings_once_after_the_iteration():
+    out, inp = _ports()
+    bell = Doorbell.create()
+    try:
+        with _both_ends([out], [inp], doorbell=bell) as (worker, channels):
+            worker.ring_if_pushed()  # nothing written: no ring
+            assert bell.wait(0.0) is False
+            out.write(2.5)
+            out.write(3.5)
+            assert bell.wait(0.0) is False  # not during the iteration
+            worker.ring_if_pushed()
+            assert bell.wait(1.0) is True
+            ring = channels["/ros/out"]
+            start, n = ring.pending()
+            assert n == 2
+            assert codec_for(float).decode(read_record(ring, start)) == 2.5
+            assert codec_for(float).decode(read_record(ring, start + 1)) == 3.5
+            ring.release(n)
+            worker.ring_if_pushed()  # rung once per iteration that wrote
+            assert bell.wait(0.0) is False
+    finally:
         bell.close()
     assert type(out) is OutputPort  # the tap is gone with the run
 
 
 def test_a_full_output_ring_counts_the_drop_and_keeps_the_first_records():
     out, _ = _ports()
-    ports = mapped_ports([out], [])
-    buf = memoryview(bytearray(segment_size(ports)))
-    channels = _supervisor_side(buf, ports)
-    worker = WorkerPorts(buf, ports, [out], [])
-    try:
+    with _both_ends([out], []) as (_, channels):
         for i in range(OUTPUT_RING_RECORDS + 5):
             out.write(float(i))
         ring = channels["/ros/out"]
@@ -81,19 +92,11 @@ def test_a_full_output_ring_counts_the_drop_and_keeps_the_first_records():
         assert ring.dropped == 5
         assert codec_for(float).decode(read_record(ring, start)) == 0.0
         ring.release(n)
-    finally:
-        worker.release()
-        for channel in channels.values():
-            channel.close()
 
 
 def test_a_fed_input_reads_the_newest_message_of_its_mailbox():
     _, inp = _ports()
-    ports = mapped_ports([], [inp])
-    buf = memoryview(bytearray(segment_size(ports)))
-    channels = _supervisor_side(buf, ports)
-    worker = WorkerPorts(buf, ports, [], [inp])
-    try:
+    with _both_ends([], [inp]) as (worker, channels):
         (feeder,) = worker.feeders
         feeder()
         assert inp.read() is None
@@ -102,37 +105,21 @@ def test_a_fed_input_reads_the_newest_message_of_its_mailbox():
         box.write(codec_for(float).encode(7.0))
         feeder()
         assert inp.read() == 7.0
-    finally:
-        worker.release()
-        for channel in channels.values():
-            channel.close()
 
 
 def test_a_message_that_arrived_before_the_worker_set_up_its_run_is_read():
     _, inp = _ports()
-    ports = mapped_ports([], [inp])
-    buf = memoryview(bytearray(segment_size(ports)))
-    channels = _supervisor_side(buf, ports)
-    channels["/ros/in"].write(codec_for(float).encode(3.5))  # the bridge was quicker
-    worker = WorkerPorts(buf, ports, [], [inp])
-    try:
+    quicker = {"/ros/in": codec_for(float).encode(3.5)}  # the bridge was quicker
+    with _both_ends([], [inp], arrived=quicker) as (worker, _):
         worker.feeders[0]()
         assert inp.read() == 3.5
         assert worker.inputs() == {"/ros/in": {"read": 1, "superseded": 0}}
-    finally:
-        worker.release()
-        for channel in channels.values():
-            channel.close()
 
 
 def test_a_fed_input_counts_the_messages_a_newer_one_replaced_and_reads_each_once():
     _, inp = _ports()
-    ports = mapped_ports([], [inp])
-    buf = memoryview(bytearray(segment_size(ports)))
-    channels = _supervisor_side(buf, ports)
-    worker = WorkerPorts(buf, ports, [], [inp])
-    box = channels["/ros/in"]
-    try:
+    with _both_ends([], [inp]) as (worker, channels):
+        box = channels["/ros/in"]
         (feeder,) = worker.feeders
         seen = []
         for burst in ([1.0], [2.0, 3.0, 4.0], [], [5.0, 6.0], [7.0]):
@@ -146,10 +133,6 @@ def test_a_fed_input_counts_the_messages_a_newer_one_replaced_and_reads_each_onc
         # 7 arrived = 4 read + 3 replaced before an iteration read them
         assert worker.inputs() == {"/ros/in": {"read": 4, "superseded": 3}}
         assert box.version == 7
-    finally:
-        worker.release()
-        for channel in channels.values():
-            channel.close()
 
 
 @pytest.mark.parametrize(
@@ -164,33 +147,21 @@ def test_a_fed_input_counts_the_messages_a_newer_one_replaced_and_reads_each_onc
 def test_a_fed_input_decodes_every_kind_from_its_buffer(cls, values):
     inp = InputPort("/b", "in", cls)
     inp.topic = "/ros/in"
-    ports = mapped_ports([], [inp])
-    buf = memoryview(bytearray(segment_size(ports)))
-    channels = _supervisor_side(buf, ports)
-    worker = WorkerPorts(buf, ports, [], [inp])
-    codec = codec_for(cls)
-    try:
+    with _both_ends([], [inp]) as (worker, channels):
+        codec = codec_for(cls)
         (feeder,) = worker.feeders
         for value in values:
             channels["/ros/in"].write(codec.encode(value))
             feeder()
             got = inp.read()
             assert type(got) is cls and got == value
-    finally:
-        worker.release()
-        for channel in channels.values():
-            channel.close()
 
 
 def test_a_fed_float_array_is_a_copy():
     np = pytest.importorskip("numpy")
     inp = InputPort("/b", "in", np.ndarray)
     inp.topic = "/ros/in"
-    ports = mapped_ports([], [inp])
-    buf = memoryview(bytearray(segment_size(ports)))
-    channels = _supervisor_side(buf, ports)
-    worker = WorkerPorts(buf, ports, [], [inp])
-    try:
+    with _both_ends([], [inp]) as (worker, channels):
         (feeder,) = worker.feeders
         channels["/ros/in"].write(codec_for(np.ndarray).encode(np.array([1.0, 2.0])))
         feeder()
@@ -199,7 +170,3 @@ def test_a_fed_float_array_is_a_copy():
         feeder()
         assert first.tolist() == [1.0, 2.0]  # not overwritten by the next message
         assert inp.read().tolist() == [3.0]
-    finally:
-        worker.release()
-        for channel in channels.values():
-            channel.close()
