@@ -10,6 +10,7 @@ import sys
 import tracemalloc
 from array import array
 from collections.abc import Callable, Iterator
+from contextlib import closing
 from types import ModuleType
 from typing import Any
 
@@ -108,45 +109,35 @@ class Pair:
 def test_a_reader_in_another_lane_gets_each_iterations_value(
     m: ModuleType, kind: str, values: list[Any]
 ) -> None:
-    pair = Pair(m, kind)
-    assert (type(pair.send) is _compiled.Handover) == (m is _compiled)
     cls = TYPES[kind][0]
-    try:
+    with closing(Pair(m, kind)) as pair:
+        assert (type(pair.send) is _compiled.Handover) == (m is _compiled)
         for i, v in enumerate(values):
             pair.produce(i, v)
             assert pair.receive(i) == (cls(v), i + 1, i)
         assert pair.counts() == {}
-    finally:
-        pair.close()
 
 
 def test_a_value_never_written_crosses_as_none(m: ModuleType) -> None:
-    pair = Pair(m, "float")
-    try:
+    with closing(Pair(m, "float")) as pair:
         pair.produce(0)
         assert pair.receive(0) == (None, 0, -1)
-    finally:
-        pair.close()
 
 
 def test_a_value_too_large_for_its_channel_is_refused_and_leaves_the_entry(
     m: ModuleType,
 ) -> None:
-    pair = Pair(m, "str")
-    try:
+    with closing(Pair(m, "str")) as pair:
         pair.produce(0, "fits")
         pair.out.write("x" * 17)
         with pytest.raises(ValueError, match="17 bytes is larger than a lane's channel holds"):
             pair.produce(4)  # the same entry as iteration 0 (DEPTH 4)
         assert pair.receive(0) == ("fits", 1, 0)
-    finally:
-        pair.close()
 
 
 def test_in_real_time_a_value_not_there_by_the_periods_end_is_late(m: ModuleType) -> None:
     t = [0]
-    pair = Pair(m, "float", simulated=False, now=lambda: t[0])
-    try:
+    with closing(Pair(m, "float", simulated=False, now=lambda: t[0])) as pair:
         pair.produce(0, 1.0)
         assert pair.receive(0) == (1.0, 1, 0)
         pair.words[W_ORIGIN_NS] = 0
@@ -154,27 +145,21 @@ def test_in_real_time_a_value_not_there_by_the_periods_end_is_late(m: ModuleType
         t[0] = 2_000_001  # past the end of iteration 1's period: it will not wait
         assert pair.receive(1) == (1.0, 1, 0)  # the previous value stays
         assert pair.counts() == {"@recv /x": {"late": 1}}
-    finally:
-        pair.close()
 
 
 def test_a_reader_that_fell_behind_counts_the_value_lost(m: ModuleType) -> None:
-    pair = Pair(m, "int")
-    try:
+    with closing(Pair(m, "int")) as pair:
         for i in range(5):  # iteration 4 overwrote iteration 0's entry
             pair.produce(i, 10 + i)
         assert pair.receive(0) == (None, 0, -1)
         assert pair.counts() == {"@recv /x": {"lost": 1}}
         assert pair.receive(4) == (14, 5, 4)
-    finally:
-        pair.close()
 
 
 def test_a_wait_ends_when_the_producer_finished_the_iteration_without_it(
     m: ModuleType,
 ) -> None:
-    pair = Pair(m, "float")
-    try:
+    with closing(Pair(m, "float")) as pair:
         pair.produce(0, 2.0)
         pair.receive(0)
         # the producer says it is done with 1 without sending it (a failure ended it)
@@ -183,38 +168,29 @@ def test_a_wait_ends_when_the_producer_finished_the_iteration_without_it(
         pair.words[W_STOP_AT] = 1  # the lanes stop after 1: no wait for 2 either
         assert pair.receive(2) == (2.0, 1, 0)
         assert pair.counts() == {}
-    finally:
-        pair.close()
 
 
 def test_a_let_lanes_output_shows_when_its_window_ends(m: ModuleType) -> None:
-    pair = Pair(m, "float", every=4)  # released at 1, 5, 9 ...
-    try:
+    with closing(Pair(m, "float", every=4)) as pair:  # released at 1, 5, 9 ...
         pair.produce(1, 3.0)  # release 1's output
         assert [pair.receive(i)[0] for i in (2, 3, 4)] == [None, None, None]
         assert pair.receive(5) == (3.0, 1, 1)  # window 1-4 ended
         assert pair.receive(6) == (3.0, 1, 1)
-    finally:
-        pair.close()
 
 
 def test_in_real_time_a_let_lane_not_done_by_its_window_end_is_an_overrun(
     m: ModuleType,
 ) -> None:
-    pair = Pair(m, "float", simulated=False, every=4)
-    try:
+    with closing(Pair(m, "float", simulated=False, every=4)) as pair:
         pair.produce(1, 3.0)
         assert pair.receive(5) == (3.0, 1, 1)
         assert pair.receive(9) == (3.0, 1, 1)  # release 5 did not finish
         assert pair.receive(10) == (3.0, 1, 1)  # counted once per window
         assert pair.counts() == {"@let_in /x": {"let_overruns": 1}}
-    finally:
-        pair.close()
 
 
 def test_no_reference_or_memory_is_leaked_by_handovers(m: ModuleType) -> None:
-    pair = Pair(m, "str")
-    try:
+    with closing(Pair(m, "str")) as pair:
         value = "a value"  # what crosses is a copy: only the slot's writes refer to it
         slots = (pair.out._slot, pair.stub._slot, pair.reader.state)
 
@@ -236,5 +212,3 @@ def test_no_reference_or_memory_is_leaked_by_handovers(m: ModuleType) -> None:
         gc.collect()
         assert (sys.getrefcount(value), *map(sys.getrefcount, slots)) == before
         assert grown < 64 * 1024
-    finally:
-        pair.close()
