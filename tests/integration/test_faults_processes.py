@@ -117,10 +117,20 @@ def test_a_worker_whose_supervisor_is_killed_runs_its_safe_stops(tmp_path):
     assert rtcf_shm_names() == []
 
 
-def test_a_configure_that_blocks_is_named_after_hook_timeout(tmp_path):
-    body = """
+SLOW_CONFIGURE = """
   <node name="driver" pkg="rtcf" type="rt_launcher" args="rtcf_fault_components SlowConfigure"/>"""
-    path = write_launch(tmp_path, body, runner=runner_xml(hook_timeout=1.0))
+
+
+def _blocked_in_configure(tmp_path, hook_timeout):
+    """A run a second into its driver's configure(), which blocks."""
+    path = write_launch(tmp_path, SLOW_CONFIGURE, runner=runner_xml(hook_timeout=hook_timeout))
+    proc = start("launch", path)
+    time.sleep(1.0)
+    return proc
+
+
+def test_a_configure_that_blocks_is_named_after_hook_timeout(tmp_path):
+    path = write_launch(tmp_path, SLOW_CONFIGURE, runner=runner_xml(hook_timeout=1.0))
     t0 = time.monotonic()
     proc = start("launch", path, "--duration", "1")
     _out, err = finish(proc)
@@ -133,11 +143,7 @@ def test_a_configure_that_blocks_is_named_after_hook_timeout(tmp_path):
 
 
 def test_sigterm_while_configure_blocks_ends_the_run_within_the_limit(tmp_path):
-    body = """
-  <node name="driver" pkg="rtcf" type="rt_launcher" args="rtcf_fault_components SlowConfigure"/>"""
-    path = write_launch(tmp_path, body, runner=runner_xml(hook_timeout=2.0))
-    proc = start("launch", path)
-    time.sleep(1.0)
+    proc = _blocked_in_configure(tmp_path, hook_timeout=2.0)
     t0 = time.monotonic()
     proc.send_signal(signal.SIGTERM)
     _out, err = finish(proc)
@@ -147,11 +153,7 @@ def test_sigterm_while_configure_blocks_ends_the_run_within_the_limit(tmp_path):
 
 
 def test_a_second_ctrl_c_kills_the_worker_at_once(tmp_path):
-    body = """
-  <node name="driver" pkg="rtcf" type="rt_launcher" args="rtcf_fault_components SlowConfigure"/>"""
-    path = write_launch(tmp_path, body, runner=runner_xml(hook_timeout=60.0))
-    proc = start("launch", path)
-    time.sleep(1.0)
+    proc = _blocked_in_configure(tmp_path, hook_timeout=60.0)
     t0 = time.monotonic()
     proc.send_signal(signal.SIGINT)
     time.sleep(0.3)
