@@ -156,33 +156,47 @@ def test_a_let_lane_gives_the_same_values_under_sim_and_in_real_time(tmp_path):
         assert (float(row["/y"]) if row["/y"] else None) == want, k
 
 
-FAULT = """
+# the main lane's hardware interface: its torque in a file, "1" while it runs and "0"
+# once its safe stop ran
+SAFE_HARDWARE = """
   <node name="hw" pkg="rtcf" type="rt_launcher" args="rtcf_fault_components SafeHardware -f">
     <param name="path" value="{path}"/>
-  </node>
+  </node>"""
+
+
+def _with_safe_hardware(tmp_path, body, runner=None):
+    """A launch of SAFE_HARDWARE and ``body``; its path and the torque's file."""
+    marker = tmp_path / "torque"
+    marker.write_text("1")
+    return write_launch(tmp_path, SAFE_HARDWARE.format(path=marker) + body, runner), marker
+
+
+def _the_one_error(proc, marker):
+    """The one error line of a run that failed and stopped every lane through its safe
+    stops (the hardware's too), leaving no shared memory behind."""
+    _out, err = read_rest(proc, 60)
+    assert proc.returncode == 1, err
+    errors = [line for line in err.splitlines() if line.startswith("rtcf: error:")]
+    assert len(errors) == 1, err
+    assert marker.read_text() == "0"  # the main lane's hardware interface stopped safely
+    assert rtcf_shm_names() == []
+    return errors[0]
+
+
+FAULT = """
   <node name="ctrl" pkg="rtcf" type="rt_launcher" args="rtcf_fault_components Faulty">
     <param name="at" value="20"/><param name="lane" value="control"/>
   </node>"""
 
 
 def test_a_component_that_raises_in_a_lane_stops_every_lane_through_safe_stop(tmp_path):
-    marker = tmp_path / "torque"
-    marker.write_text("1")
-    path = write_launch(tmp_path, FAULT.format(path=marker))
+    path, marker = _with_safe_hardware(tmp_path, FAULT)
     proc = start("launch", path, "--duration", "5")
-    _out, err = read_rest(proc, 60)
-    assert proc.returncode == 1, err
-    errors = [line for line in err.splitlines() if line.startswith("rtcf: error:")]
-    assert len(errors) == 1, err
-    assert "/ctrl" in errors[0] and "ZeroDivisionError: boom at iteration 20" in errors[0]
-    assert marker.read_text() == "0"  # the main lane's hardware interface stopped safely
-    assert rtcf_shm_names() == []
+    error = _the_one_error(proc, marker)
+    assert "/ctrl" in error and "ZeroDivisionError: boom at iteration 20" in error
 
 
 LET_OVERRUN = """
-  <node name="hw" pkg="rtcf" type="rt_launcher" args="rtcf_fault_components SafeHardware -f">
-    <param name="path" value="{path}"/>
-  </node>
   <node name="mpc" pkg="rtcf" type="rt_launcher" args="rtcf_examples Busy">
     <param name="every" value="4"/><param name="cost_us" value="25000"/>
     <param name="lane" value="mpc"/>
@@ -191,20 +205,12 @@ LET_OVERRUN = """
 
 def test_max_let_overruns_stops_every_lane_through_safe_stop(tmp_path):
     # 25 ms of CPU in windows of 4 periods of 5 ms: every window overruns; the third trips
-    marker = tmp_path / "torque"
-    marker.write_text("1")
-    runner = runner_xml(max_let_overruns=2)
-    path = write_launch(tmp_path, LET_OVERRUN.format(path=marker), runner)
+    path, marker = _with_safe_hardware(tmp_path, LET_OVERRUN, runner_xml(max_let_overruns=2))
     proc = start("launch", path, "--duration", "5")
-    _out, err = read_rest(proc, 60)
-    assert proc.returncode == 1, err
-    errors = [line for line in err.splitlines() if line.startswith("rtcf: error:")]
-    assert len(errors) == 1, err
+    error = _the_one_error(proc, marker)
     assert re.search(r"lane 'mpc': watchdog max_let_overruns=2: 3 windows of logical "
                      r"execution time not finished in time, the last released at iteration "
-                     r"\d+", errors[0]), errors
-    assert marker.read_text() == "0"  # the main lane's hardware interface stopped safely
-    assert rtcf_shm_names() == []
+                     r"\d+", error), error
 
 LET_FALLBACK = """
   <node name="src" pkg="rtcf" type="rt_launcher" args="rtcf_examples Sine">
@@ -261,9 +267,6 @@ def test_past_max_let_overruns_a_restart_policy_restarts_then_gives_up(tmp_path)
     assert "ran 400 iterations" in out
 
 HANG = """
-  <node name="hw" pkg="rtcf" type="rt_launcher" args="rtcf_fault_components SafeHardware -f">
-    <param name="path" value="{path}"/>
-  </node>
   <node name="slow" pkg="rtcf" type="rt_launcher" args="rtcf_fault_components Busy">
     <param name="ms" value="0.1"/><param name="hang_at" value="40"/>
     <param name="lane" value="planner"/>
@@ -271,21 +274,14 @@ HANG = """
 
 
 def test_a_lane_process_that_dies_ends_the_run_with_one_line_naming_it(tmp_path):
-    marker = tmp_path / "torque"
-    marker.write_text("1")
-    path = write_launch(tmp_path, HANG.format(path=marker))
+    path, marker = _with_safe_hardware(tmp_path, HANG)
     proc = start("launch", path, "--duration", "30", "--debug")
     found = wait_for_match(proc, r"planner \(lock step; pid (\d+), ", 30)
     time.sleep(1.0)  # /slow hangs in its update from iteration 40 (0.2 s)
     os.kill(int(found.group(1)), signal.SIGKILL)
-    _out, err = read_rest(proc, 60)
-    assert proc.returncode == 1, err
-    errors = [line for line in err.splitlines() if line.startswith("rtcf: error:")]
-    assert len(errors) == 1, err
-    assert "lane 'planner'" in errors[0] and "killed by SIGKILL" in errors[0], errors
-    assert "/slow's update() was running" in errors[0], errors
-    assert marker.read_text() == "0"  # the main lane stopped through its safe stops
-    assert rtcf_shm_names() == []
+    error = _the_one_error(proc, marker)
+    assert "lane 'planner'" in error and "killed by SIGKILL" in error, error
+    assert "/slow's update() was running" in error, error
 
 
 def test_a_recording_of_lanes_is_the_sequential_recording_and_replays_to_itself(tmp_path):
