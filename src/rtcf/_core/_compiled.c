@@ -57,6 +57,15 @@ get_words(PyObject *obj, Py_buffer *view, const char *what)
     return 0;
 }
 
+void
+rtcf_gc_dealloc(PyObject *self)
+{
+    PyTypeObject *type = Py_TYPE(self);
+    PyObject_GC_UnTrack(self);
+    (void)type->tp_clear(self);
+    type->tp_free(self);
+}
+
 /* ---- the module ------------------------------------------------------------------- */
 
 static PyObject *

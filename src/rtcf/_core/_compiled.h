@@ -166,4 +166,8 @@ RTCF_INTERNAL extern PyObject *str_plans, *str_compiled_plans, *str_inputs, *str
 /* obj's buffer as writable int64 words into view; 0, or -1 with an exception */
 RTCF_INTERNAL int get_words(PyObject *obj, Py_buffer *view, const char *what);
 
+/* the tp_dealloc of a GC type that no class may subclass: untrack, its own tp_clear,
+ * free. Runs when the object dies, never per iteration */
+RTCF_INTERNAL void rtcf_gc_dealloc(PyObject *self);
+
 #endif /* RTCF_COMPILED_H */

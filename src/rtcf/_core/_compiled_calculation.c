@@ -224,15 +224,6 @@ Calculation_clear(CalculationObject *c)
     return 0;
 }
 
-static void
-Calculation_dealloc(CalculationObject *c)
-{
-    PyObject_GC_UnTrack(c);
-    Calculation_clear(c);
-    Py_TYPE(c)->tp_free((PyObject *)c);
-}
-
-
 /* iterate(i, deadline, b): sleep until deadline, then the timed part of iteration i;
  * its timing row is words[b:] (b < 0: the scratch row, the ring was full). Returns
  * the time it ended. An update that raises leaves its column in the running word. */
@@ -374,7 +365,7 @@ PyTypeObject CalculationType = {
     .tp_flags = Py_TPFLAGS_DEFAULT | Py_TPFLAGS_HAVE_GC,
     .tp_new = PyType_GenericNew,
     .tp_init = (initproc)Calculation_init,
-    .tp_dealloc = (destructor)Calculation_dealloc,
+    .tp_dealloc = rtcf_gc_dealloc,
     .tp_traverse = (traverseproc)Calculation_traverse,
     .tp_clear = (inquiry)Calculation_clear,
     .tp_methods = Calculation_methods,

@@ -84,14 +84,6 @@ RingGate_clear(RingGateObject *g)
     return 0;
 }
 
-static void
-RingGate_dealloc(RingGateObject *g)
-{
-    PyObject_GC_UnTrack(g);
-    RingGate_clear(g);
-    Py_TYPE(g)->tp_free((PyObject *)g);
-}
-
 static PyMethodDef RingGate_methods[] = {
     {"release", (PyCFunction)RingGate_release, METH_NOARGS,
      "release()\n--\n\nLet go of the ring's words (calls do nothing after)."},
@@ -112,7 +104,7 @@ PyTypeObject RingGateType = {
     .tp_new = PyType_GenericNew,
     .tp_init = (initproc)RingGate_init,
     .tp_call = (ternaryfunc)RingGate_call,
-    .tp_dealloc = (destructor)RingGate_dealloc,
+    .tp_dealloc = rtcf_gc_dealloc,
     .tp_traverse = (traverseproc)RingGate_traverse,
     .tp_clear = (inquiry)RingGate_clear,
     .tp_methods = RingGate_methods,

@@ -446,14 +446,6 @@ Handover_clear(HandoverObject *h)
     return 0;
 }
 
-static void
-Handover_dealloc(HandoverObject *h)
-{
-    PyObject_GC_UnTrack(h);
-    Handover_clear(h);
-    Py_TYPE(h)->tp_free((PyObject *)h);
-}
-
 static PyObject *
 Handover_new(PyTypeObject *type, PyObject *args, PyObject *kwds)
 {
@@ -491,7 +483,7 @@ PyTypeObject HandoverType = {
     .tp_new = Handover_new,
     .tp_init = (initproc)Handover_init,
     .tp_call = PyVectorcall_Call,
-    .tp_dealloc = (destructor)Handover_dealloc,
+    .tp_dealloc = rtcf_gc_dealloc,
     .tp_traverse = (traverseproc)Handover_traverse,
     .tp_clear = (inquiry)Handover_clear,
     .tp_methods = Handover_methods,

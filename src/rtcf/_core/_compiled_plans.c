@@ -233,14 +233,6 @@ CompiledPlans_clear(CompiledPlansObject *cp)
     return 0;
 }
 
-static void
-CompiledPlans_dealloc(CompiledPlansObject *cp)
-{
-    PyObject_GC_UnTrack(cp);
-    plans_forget(cp);
-    PyObject_GC_Del(cp);
-}
-
 static PyObject *
 CompiledPlans_get_plans(CompiledPlansObject *cp, void *Py_UNUSED(closure))
 {
@@ -265,7 +257,7 @@ PyTypeObject CompiledPlansType = {
     .tp_basicsize = sizeof(CompiledPlansObject),
     .tp_flags = Py_TPFLAGS_DEFAULT | Py_TPFLAGS_HAVE_GC,
     .tp_new = CompiledPlans_new,
-    .tp_dealloc = (destructor)CompiledPlans_dealloc,
+    .tp_dealloc = rtcf_gc_dealloc,
     .tp_traverse = (traverseproc)CompiledPlans_traverse,
     .tp_clear = (inquiry)CompiledPlans_clear,
     .tp_getset = CompiledPlans_getset,

@@ -220,15 +220,21 @@ Port_get_tap(PortObject *p, void *closure)
     return Py_NewRef(p->tap != NULL ? p->tap : Py_None);
 }
 
+/* a field that None (or deleting the attribute) empties */
+static int
+set_or_clear(PyObject **field, PyObject *value)
+{
+    if (value == NULL || value == Py_None)
+        Py_CLEAR(*field);
+    else
+        Py_XSETREF(*field, Py_NewRef(value));
+    return 0;
+}
+
 static int
 Port_set_tap(PortObject *p, PyObject *value, void *closure)
 {
-    if (value == NULL || value == Py_None) {
-        Py_CLEAR(p->tap);
-        return 0;
-    }
-    Py_XSETREF(p->tap, Py_NewRef(value));
-    return 0;
+    return set_or_clear(&p->tap, value);
 }
 
 static PyObject *
@@ -240,12 +246,7 @@ Port_get_producer(PortObject *p, void *closure)
 static int
 Port_set_producer(PortObject *p, PyObject *value, void *closure)
 {
-    if (value == NULL || value == Py_None) {
-        Py_CLEAR(p->producer);
-        return 0;
-    }
-    Py_XSETREF(p->producer, Py_NewRef(value));
-    return 0;
+    return set_or_clear(&p->producer, value);
 }
 
 static PyObject *

@@ -35,14 +35,6 @@ Slot_clear(SlotObject *s)
     return 0;
 }
 
-static void
-Slot_dealloc(SlotObject *s)
-{
-    PyObject_GC_UnTrack(s);
-    Slot_clear(s);
-    Py_TYPE(s)->tp_free((PyObject *)s);
-}
-
 static PyObject *
 Slot_get_value(SlotObject *s, void *closure)
 {
@@ -80,7 +72,7 @@ PyTypeObject SlotType = {
     .tp_basicsize = sizeof(SlotObject),
     .tp_flags = Py_TPFLAGS_DEFAULT | Py_TPFLAGS_HAVE_GC,
     .tp_new = Slot_new,
-    .tp_dealloc = (destructor)Slot_dealloc,
+    .tp_dealloc = rtcf_gc_dealloc,
     .tp_traverse = (traverseproc)Slot_traverse,
     .tp_clear = (inquiry)Slot_clear,
     .tp_getset = Slot_getset,
