@@ -24,7 +24,7 @@ typedef struct {
     double ns_per_cycle;     /* > 0: components timed by the cycle counter */
     /* executor.plans, while it is this object, and its arrays (calc_take): held by
      * compiled, copied here so that an iteration reads them as its own */
-    PyObject *compiled_plans;
+    PyObject *taken_plans;
     PyObject *compiled;      /* a CompiledPlans */
     Py_ssize_t nphases;
     CalcPhase *phases;
@@ -96,7 +96,7 @@ calc_forget_plans(CalculationObject *c)
     c->nphases = 0;
     c->phases = NULL;
     Py_CLEAR(c->compiled);
-    Py_CLEAR(c->compiled_plans);
+    Py_CLEAR(c->taken_plans);
 }
 
 /* executor.plans as arrays: the executor's compiled_plans, compiled where it built
@@ -122,7 +122,7 @@ calc_take(CalculationObject *c, PyObject *plans)
         return -1;
     }
     Py_XSETREF(c->compiled, ready);
-    Py_XSETREF(c->compiled_plans, Py_NewRef(plans));
+    Py_XSETREF(c->taken_plans, Py_NewRef(plans));
     c->nphases = cp->nphases;
     c->phases = cp->phases;
     return 0;
@@ -206,7 +206,7 @@ Calculation_traverse(CalculationObject *c, visitproc visit, void *arg)
     Py_VISIT(c->feeders);
     Py_VISIT(c->now);
     Py_VISIT(c->sleep_until);
-    Py_VISIT(c->compiled_plans);
+    Py_VISIT(c->taken_plans);
     Py_VISIT(c->compiled);
     return 0;
 }
@@ -285,11 +285,11 @@ Calculation_iterate(CalculationObject *c, PyObject *const *args, Py_ssize_t narg
     PyObject *plans = PyObject_GetAttr(c->executor, str_plans);
     if (plans == NULL)
         return NULL;
-    if (plans != c->compiled_plans && calc_take(c, plans) < 0) {
+    if (plans != c->taken_plans && calc_take(c, plans) < 0) {
         Py_DECREF(plans);
         return NULL;
     }
-    Py_DECREF(plans); /* c->compiled_plans holds it */
+    Py_DECREF(plans); /* c->taken_plans holds it */
     long long phase = i % c->nphases;
     if (phase < 0)
         phase += c->nphases;
