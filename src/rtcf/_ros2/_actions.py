@@ -38,7 +38,7 @@ from .._core._action_protocol import (
 )
 from .._core._message_types import message_class
 from .._core._rings import Mailbox, Ring
-from .._runtime._action_channels import REQUESTS, drain_events, push_request, too_big
+from .._runtime._action_channels import REQUESTS, drain_events, goal_room, push_request
 from .._runtime._port_channels import MailboxFanOut, MappedPort
 
 RESPONSE_TIMEOUT_S = 1.0  # a goal or cancel the loop has not answered by then: rejected
@@ -108,11 +108,11 @@ class _Served:
         if not bridge.is_active(self.component):  # as ros2_controllers' do
             return GoalResponse.REJECT
         cdr = serialize_message(goal)
-        if too_big(cdr):
-            bridge.warn(f"action {self.name}: a goal of {len(cdr)} bytes is larger than the "
-                        "requests channel's records; rejected")
-            return GoalResponse.REJECT
         with bridge.lock:
+            if self.requests is not None and len(cdr) > goal_room(self.requests):
+                bridge.warn(f"action {self.name}: a goal of {len(cdr)} bytes is larger than "
+                            f"action_max_goal_bytes ({goal_room(self.requests)}); rejected")
+                return GoalResponse.REJECT
             goal_id = self._next_id
             self._next_id += 1
             record = _Goal(goal_id)

@@ -30,24 +30,29 @@ REQUESTS = "action_requests"  # MappedPort.direction of the requests ring
 EVENTS = "action_events"  # ... and of the events ring
 REQUEST_RECORDS = 8
 EVENT_RECORDS = 64
-ACTION_GOAL_BYTES = 256 * 1024  # a 100-point 7-joint FollowJointTrajectory goal: ~20 KiB
 ACTION_EVENT_BYTES = 16 * 1024
 _REQUEST = struct.Struct("<BBHI16sI")
 _EVENT = struct.Struct("<BBHII")
 
 
-def ring_shape(direction: str) -> tuple[int, int]:
-    """(records, record size) of an action's ring in ``direction``."""
+def ring_shape(direction: str, goal_bytes: int) -> tuple[int, int]:
+    """(records, record size) of an action's ring in ``direction``; ``goal_bytes``: the
+    largest goal (the runner's ``action_max_goal_bytes``)."""
     if direction == REQUESTS:
-        return REQUEST_RECORDS, _REQUEST.size + ACTION_GOAL_BYTES
+        return REQUEST_RECORDS, _REQUEST.size + goal_bytes
     return EVENT_RECORDS, _EVENT.size + ACTION_EVENT_BYTES
+
+
+def goal_room(ring: Ring) -> int:
+    """The largest goal (CDR bytes) the requests ring takes."""
+    return ring.record_size - _REQUEST.size
 
 
 def message_codecs(action: str, action_type: type) -> dict[str, Codec]:
     """The codecs of an action's Goal, Feedback and Result (ROS 2 message classes)."""
     codecs = {}
     for part in ("Goal", "Feedback", "Result"):
-        codec = codec_for(getattr(action_type, part), max_message_bytes=ACTION_GOAL_BYTES)
+        codec = codec_for(getattr(action_type, part))
         if codec is None or codec.kind != "ros2":
             raise ConfigurationError(
                 f"action {action} ({action_type.__name__}) is mapped to the middleware "
@@ -62,8 +67,9 @@ def message_codecs(action: str, action_type: type) -> dict[str, Codec]:
 
 # -- the supervisor's side ----------------------------------------------------------
 def push_request(ring: Ring, kind: int, goal_id: int, uuid: bytes, cdr: bytes = b"") -> bool:
-    """Write one request; False if the ring is full (the caller rejects it)."""
-    if too_big(cdr) or len(cdr) > ring.record_size - _REQUEST.size:
+    """Write one request; False if it is larger than the ring's records (see
+    :func:`goal_room`) or the ring is full (the caller rejects it)."""
+    if len(cdr) > ring.record_size - _REQUEST.size:
         return False
     off = ring.reserve()
     if off < 0:
@@ -73,11 +79,6 @@ def push_request(ring: Ring, kind: int, goal_id: int, uuid: bytes, cdr: bytes = 
     ring.data[start : start + len(cdr)] = cdr
     ring.commit()
     return True
-
-
-def too_big(cdr: bytes) -> bool:
-    """Whether a goal's bytes exceed what the requests ring holds."""
-    return len(cdr) > ACTION_GOAL_BYTES
 
 
 def drain_events(ring: Ring) -> Iterator[tuple[int, int, int, int, bytes]]:
