@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import time
 from typing import Any
 
 import pytest
@@ -146,3 +147,26 @@ def test_a_recording_of_every_topic_leaves_the_action_ports_out() -> None:
         assert recorded_topics(comp.outputs.values(), comp.inputs.values(), ".*") == []
     finally:
         runner.shutdown()
+
+
+def test_a_request_still_waiting_at_its_deadline_is_dropped() -> None:
+    requests, events = _ring(ac.REQUESTS), _ring(ac.EVENTS)
+    past = time.monotonic_ns() - 1
+    ac.push_request(requests, ActionRequest.GOAL, 1, bytes(16), _goal(2), deadline_ns=past)
+    ac.push_request(requests, ActionRequest.GOAL, 2, bytes(16), _goal(-1),
+                    deadline_ns=time.monotonic_ns() + 60 * 10**9)
+    _, feeder, _ = _serve(requests, events, 3)
+    assert (feeder.expired, feeder.delivered) == (1, 1)
+    assert [(k, g) for k, _, _, g, _ in ac.drain_events(events)] == [(ActionEvent.RESPONSE, 2)]
+
+
+def test_a_request_handed_over_but_not_taken_is_rejected_when_the_component_stops() -> None:
+    requests, events = _ring(ac.REQUESTS), _ring(ac.EVENTS)
+
+    class Deaf(FibServer):
+        def update(self) -> None:  # never takes a request
+            pass
+
+    ac.push_request(requests, ActionRequest.GOAL, 4, bytes(16), _goal(2))
+    _serve(requests, events, 2, Deaf)
+    assert list(ac.drain_events(events)) == [(ActionEvent.RESPONSE, GoalStatus.UNKNOWN, 0, 4, b"")]

@@ -165,11 +165,16 @@ class ActionServer:
 
     # -- the framework's ---------------------------------------------------------------
     def _abort_open(self) -> None:
-        """After ``stop``: a request left undecided is rejected, open goals ABORTED."""
-        req, self._pending = self._pending, None
-        if req is not None:
-            flags = FLAG_CANCEL if req.kind == CANCEL else 0
-            self._write(RESPONSE, req.goal_id, UNKNOWN, None, flags)
+        """After ``stop``: a request left undecided (or not taken) is rejected, open
+        goals end ABORTED."""
+        undecided = [self._pending]
+        self._pending = None
+        if self._requests.has_new_data:  # handed over, not taken: not left for later
+            undecided.append(self._requests.read())
+        for req in undecided:
+            if req is not None:
+                flags = FLAG_CANCEL if req.kind == CANCEL else 0
+                self._write(RESPONSE, req.goal_id, UNKNOWN, None, flags)
         for goal_id in self._active:
             self._end(goal_id, ABORTED, None, "stop")
 
