@@ -29,6 +29,13 @@ LAUNCH = Path(__file__).parent / "fixtures" / "fibonacci.launch.xml"
 NAME = "/fib/fibonacci"
 
 
+def _fibonacci(n):
+    terms = [0, 1]
+    while len(terms) < n:
+        terms.append(terms[-1] + terms[-2])
+    return terms[:n]
+
+
 @pytest.fixture(scope="module")
 def served():
     with launched(LAUNCH) as proc:
@@ -77,8 +84,7 @@ def test_a_goal_is_accepted_fed_back_and_succeeds(client):
     answer = client.wait(handle.get_result_async())
     assert answer.status == GoalStatus.STATUS_SUCCEEDED
     sequence = list(answer.result.sequence)
-    assert sequence == [0, 1, 1, 2, 3, 5, 8, 13, 21, 34, 55, 89, 144, 233, 377, 610, 987,
-                        1597, 2584, 4181, 6765]
+    assert sequence == _fibonacci(21)
     # the first may precede the subscription's match; the last may come after the result
     # (a topic and a service: ROS orders nothing between them)
     assert client.until(lambda: feedback and len(feedback[-1].sequence) == len(sequence))
@@ -97,7 +103,8 @@ def test_a_cancel_ends_the_goal_canceled_with_the_terms_so_far(client):
     assert len(canceling.goals_canceling) == 1
     answer = client.wait(handle.get_result_async())
     assert answer.status == GoalStatus.STATUS_CANCELED
-    assert list(answer.result.sequence[:5]) == [0, 1, 1, 2, 3]
+    terms = list(answer.result.sequence)  # as many as the iterations before the cancel
+    assert len(terms) >= 3 and terms == _fibonacci(len(terms))
 
 
 def test_a_newer_goal_preempts_the_running_one(client):
