@@ -42,6 +42,6 @@ class Throttled:
         self._last_ns = now
         left_out, self._left_out = self._left_out, 0
         if left_out:
-            msg = msg + " (and %d times more since the last such record)"
+            msg = msg + " (%d more like it since the last record)"
             args = (*args, left_out)
         self._component.log.log(level, msg, *args)

@@ -118,7 +118,7 @@ def test_a_command_of_the_wrong_length_is_refused_and_logged_once_per_occurrence
     assert refused == [
         "/forward/commands refused: 2 values for 3 joints (j1, j2, j3); the last command stays",
         "/forward/commands refused: 2 values for 3 joints (j1, j2, j3); the last command "
-        "stays (and 2 times more since the last such record)",
+        "stays (2 more like it since the last record)",
     ]
 
 
