@@ -89,6 +89,10 @@ class JointStateBroadcaster(rtcf.Component):
         self.n = 0
         if joints:
             self._name_joints(joints)
+        else:  # ros2_control names them from the URDF; here nothing else knows them
+            self.log.nonrt.warning(
+                "joints not given: the joints are named joint1, joint2, ... as many as the "
+                "first array has; give joints (the robot's joint names, in the arrays' order)")
 
     def _name_joints(self, joints: list[str]) -> None:
         """Everything sized by the joints, made once: the value of each interface per
@@ -113,7 +117,6 @@ class JointStateBroadcaster(rtcf.Component):
                 continue
             if not self.n:
                 self._name_joints([f"joint{j + 1}" for j in range(len(values))])
-                self.log.info("joints not given: naming them %s", self.names)
             if len(values) != self.n:
                 self.bad_length.error(
                     "%s has %d values for %d joints (%s): ignored, the last ones stay",
