@@ -51,3 +51,15 @@ class Mass(rtcf.Component):
             self.x = self.x + self.v * self.period
         self.position.write(self.x)
         self.velocity.write(self.v)
+
+
+class RefusesRestart(rtcf.Component):
+    """Starts once; each later ``start`` fails (returns False): a controller whose
+    activation a switch cannot make, for the switch's rollback."""
+
+    def configure(self) -> None:
+        self.starts = 0
+
+    def start(self) -> bool:
+        self.starts += 1
+        return self.starts == 1

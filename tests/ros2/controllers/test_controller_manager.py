@@ -41,16 +41,31 @@ def _states(node) -> dict[str, str]:
     return {name: row[0] for name, row in _list(node).items()}
 
 
-def test_list_controllers_and_switch_one_off_while_the_others_run(ros_node) -> None:
+# the example, and a controller that cannot be activated again once deactivated
+WITH_REFUSER = """<launch>
+  <include file="{launch}">
+    <arg name="frequency" value="200.0"/>
+    <arg name="ros_topics" value="/joint_states"/>
+  </include>
+  <node pkg="rtcf" exec="rt_launcher" name="refuser"
+        args="tests.ros2.controllers._plants RefusesRestart"/>
+</launch>
+"""
+
+
+def test_list_controllers_and_switch_one_off_while_the_others_run(ros_node, tmp_path) -> None:
     env = rtcf_env()
     env["PYTHONPATH"] = f"{ROOT}:{env['PYTHONPATH']}"
     joint_states: list[JointState] = []
     ros_node.create_subscription(JointState, "/joint_states", joint_states.append, 10)
-    proc = _proc.start_rtcf(env, "launch", LAUNCH, "frequency:=200.0",
-                            "ros_topics:=/joint_states", "--middleware", "ros2")
+    launch = tmp_path / "cm.launch.xml"
+    launch.write_text(WITH_REFUSER.format(launch=LAUNCH))
+    proc = _proc.start_rtcf(env, "launch", launch, "--middleware", "ros2")
     try:
         wait_running(proc)
         listed = _list(ros_node)
+        assert listed.pop("refuser") == (
+            "active", "tests.ros2.controllers._plants.RefusesRestart", 200, False)
         assert listed == {
             "arm/hardware": ("active", "tests.ros2.controllers._plants.PositionJoints", 200,
                              False),
@@ -90,6 +105,15 @@ def test_list_controllers_and_switch_one_off_while_the_others_run(ros_node) -> N
                         strictness=BEST_EFFORT)
         assert ok
         assert set(_states(ros_node).values()) == {"active"}
+
+        # STRICT: a transition that fails undoes the switch (the PID comes back on)
+        assert _switch(ros_node, deactivate=["refuser"]) == (True, "")
+        ok, message = _switch(ros_node, activate=["refuser"],
+                              deactivate=["wheel_pid_controller"])
+        assert (ok, message) == (False, "Could not activate controller 'refuser': start() "
+                                        "returned False; the switch was undone ('STRICT' switch)")
+        states = _states(ros_node)
+        assert (states.pop("refuser"), set(states.values())) == ("inactive", {"active"})
     finally:
         _, err = stop(proc)
     assert "[/forward_position_controller]: lifecycle: deactivate: active -> inactive" in err
