@@ -222,6 +222,9 @@ class Components:
             ],
             "log_level": comp.log.level,
             "every": comp.every,  # runs every this many iterations (rate, every)
+            "lane": lane_of(entry.spec.lane),
+            # what a ros2_control controller manager calls its type (rtcf_controllers')
+            "ros2_control_type": str(getattr(type(comp), "ros2_control_type", "")),
             "lifecycle": STATE_LABELS[entry.state],
         }
 

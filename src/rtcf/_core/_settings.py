@@ -8,6 +8,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from ._errors import ConfigurationError
+from ._names import validate_name
 
 MODES = ("wait_for_components", "no_wait", "wait_for_trigger")
 RELIABILITIES = ("reliable", "best_effort")
@@ -35,6 +36,9 @@ class RunnerSettings:
     ``iteration_info``: publish ``~/iteration_info`` (one message per iteration).
     ``action_max_goal_bytes``: the largest goal (its CDR bytes) a mapped action takes;
     a larger one is rejected.
+    ``controller_manager``: under ROS 2, the name (relative to the runner's namespace,
+    or absolute) whose ``list_controllers`` and ``switch_controller`` services a
+    ros2_control controller manager's tools call; empty: none.
     ``max_consecutive_overruns``/``max_overruns_per_second``: watchdogs that end the
     loop through the safe-stop path past that many overruns (0: off).
     ``max_let_overruns``: a watchdog that ends the loop through the safe-stop path
@@ -71,6 +75,7 @@ class RunnerSettings:
     ros_qos_durability: str = "volatile"
     iteration_info: bool = True
     action_max_goal_bytes: int = 256 * 1024  # a 100-point 7-joint FollowJointTrajectory: ~20 KiB
+    controller_manager: str = "controller_manager"
     max_consecutive_overruns: int = 0
     max_let_overruns: int = 0
     max_overruns_per_second: int = 0
@@ -120,6 +125,14 @@ class RunnerSettings:
         for key in ("safe_heap_size_kB", "safe_stack_size_kB", "cpu_affinity_mask"):
             if getattr(self, key) < 0:
                 raise bad(f"{key} must not be negative")
+        if self.controller_manager:
+            problem = validate_name(self.controller_manager, what="controller_manager")
+            if problem or self.controller_manager.startswith("~"):
+                raise bad(
+                    f"controller_manager {self.controller_manager!r} is not a node name: give "
+                    "a name such as controller_manager or /robot/controller_manager, or "
+                    "'' for none"
+                )
         if self.ros_qos_depth < 1:
             raise bad(f"ros_qos_depth {self.ros_qos_depth} must be at least 1")
         if not 1024 <= self.action_max_goal_bytes <= 64 * 1024 * 1024:
@@ -246,6 +259,7 @@ _CONVERTERS = {
     "ros_qos_durability": _to_str,
     "iteration_info": _to_bool,
     "action_max_goal_bytes": _to_int,
+    "controller_manager": _to_str,
     "max_consecutive_overruns": _to_int,
     "max_overruns_per_second": _to_int,
     "max_let_overruns": _to_int,
@@ -273,6 +287,7 @@ _EXPECTED = {
     "ros_qos_durability": "volatile or transient_local",
     "iteration_info": "true or false",
     "action_max_goal_bytes": "an integer",
+    "controller_manager": "a node name, or '' for none",
     "max_consecutive_overruns": "an integer",
     "max_overruns_per_second": "an integer",
     "max_let_overruns": "an integer",
@@ -302,6 +317,7 @@ _MEANING = {
     "ros_qos_durability": "volatile or transient_local",
     "iteration_info": "publish ~/iteration_info, one message per iteration",
     "action_max_goal_bytes": "largest goal (CDR bytes) a mapped action takes",
+    "controller_manager": "ROS 2: where list_controllers/switch_controller are served",
     "max_consecutive_overruns": "watchdog: overruns in a row that end the loop (0: off)",
     "max_overruns_per_second": "watchdog: overruns within a second that end it (0: off)",
     "max_let_overruns": "watchdog: windows a LET lane may miss in a run (0: off)",

@@ -47,6 +47,7 @@ from .._runtime._health import diagnostic_array, health
 from .._runtime._middleware import import_client, mapped_message_class
 from .._runtime._port_channels import MailboxFanOut, MappedPort, read_record
 from ._actions import ActionBridge
+from ._controller_manager import serve_controller_manager
 from ._face import ComponentFace, read_only, ros_logger_name, ros_value
 from ._inputs import DirectInputs
 
@@ -210,6 +211,7 @@ class Ros2Bridge:
         self._use_sim_time = False
         self._info_offset = 0
         self._introspect_srv: Any = None
+        self._controller_manager: Any = None
         self._running = True
         # how outputs reach ROS (docs/performance.md#what-ros-sees): "timed" (CDR bytes
         # made here, the publishing thread at SCHED_FIFO below the loop, short GIL
@@ -251,6 +253,9 @@ class Ros2Bridge:
             )
         runner.transition_listeners.append(self._transitioned)
         self._runner = runner
+        if settings.controller_manager and self._controller_manager is None:
+            self._controller_manager = serve_controller_manager(
+                self.node, runner, settings.controller_manager)
 
         self._qos = QoSProfile(
             depth=settings.ros_qos_depth,
@@ -503,6 +508,8 @@ class Ros2Bridge:
             face.close()
             face.node.destroy_node()
         self._faces.clear()
+        if self._controller_manager is not None:
+            self._controller_manager.close()
         self.node.destroy_node()
         if self._owns_context:
             self._rclpy.shutdown(context=self.context)

@@ -1,0 +1,183 @@
+"""ros2_control's controller manager services, answered from a runner's components.
+
+Tools that manage ros2_control controllers (``ros2 control list_controllers`` and
+``switch_controllers``, rqt_controller_manager, a spawner's activation) call
+``<controller_manager>/list_controllers`` and ``<controller_manager>/switch_controller``
+(controller_manager_msgs). A runner under ROS 2 answers both for its components, so
+those tools see and switch rtcf's controllers:
+
+* every loaded component is a controller, named relative to the controller manager's
+  namespace (as ros2_control's controllers are nodes there), with its lifecycle state,
+  its type (the class's ``ros2_control_type``, as rtcf_controllers give it, else
+  ``module.Class``), its rate, and ``is_async`` when it runs in a lane on logical
+  execution time;
+* a switch is the components' lifecycle transitions (``WorkerRunner.change_state``):
+  the deactivations first, then the activations, each applied by the loop between two
+  iterations while it runs on. The checks are the controller manager's (Jazzy): an
+  unknown name, activating one that is not inactive, deactivating one that is not
+  active. ``STRICT`` refuses the whole request on any of them, and a transition that
+  fails undoes those already made; ``BEST_EFFORT`` (also for 0, ``AUTO`` and
+  ``FORCE_AUTO``, as ros2_control falls back) leaves the offending ones out and goes on.
+
+Both run in the bridge's executor thread, as the components' lifecycle services do;
+the worker never sees them other than as lifecycle transitions.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from .._core._errors import RtcfError
+from .._core._lane_names import MAIN_LANE
+from .._core._names import expand, namespace_of
+from .._runtime._supervisor import WorkerRunner
+
+NOTHING_TO_DO = (
+    "After checking the controllers, no controllers need to be activated or deactivated.")
+
+
+def serve_controller_manager(
+    node: Any, runner: WorkerRunner, name: str
+) -> ControllerManager | None:
+    """The services, where controller_manager_msgs imports (``bash scripts/setup-ros2``
+    builds it; a ROS 2 installation has it); else none, said at debug level."""
+    try:
+        return ControllerManager(node, runner, name)
+    except ImportError as exc:
+        node.get_logger().debug(
+            f"no {name}/list_controllers nor switch_controller: {exc} (controller_manager_msgs "
+            "is built by bash scripts/setup-ros2, docs/ros2.md)")
+        return None
+
+
+class ControllerManager:
+    """The two services on ``node``, under ``name`` (relative to the node's namespace)."""
+
+    def __init__(self, node: Any, runner: WorkerRunner, name: str) -> None:
+        from controller_manager_msgs.msg import ControllerState
+        from controller_manager_msgs.srv import ListControllers, SwitchController
+
+        self._node = node
+        self._runner = runner
+        self._state_msg = ControllerState
+        self._strict = SwitchController.Request.STRICT
+        full = expand(name, node.get_namespace())
+        self.name = full
+        self._namespace = namespace_of(full)
+        self._services = [
+            node.create_service(ListControllers, f"{full}/list_controllers", self._list),
+            node.create_service(SwitchController, f"{full}/switch_controller", self._switch),
+        ]
+
+    def close(self) -> None:
+        for service in self._services:
+            self._node.destroy_service(service)
+        self._services.clear()
+
+    # -- names ------------------------------------------------------------------------
+    def _short(self, component: str) -> str:
+        """A component's controller name: relative to the manager's namespace."""
+        ns = self._namespace.rstrip("/") + "/"
+        return component[len(ns):] if component.startswith(ns) else component
+
+    def _full(self, controller: str) -> str:
+        return expand(controller, self._namespace)
+
+    # -- list_controllers ---------------------------------------------------------------
+    def _list(self, request: Any, response: Any) -> Any:
+        frequency = self._runner.settings.frequency
+        for info in self._runner.introspect().get("components", []):
+            every = int(info.get("every", 1)) or 1
+            state = self._state_msg()
+            state.name = self._short(str(info["name"]))
+            state.state = str(info.get("lifecycle", "unknown"))
+            state.type = str(info.get("ros2_control_type") or info.get("type", ""))
+            state.is_async = info.get("lane", MAIN_LANE) != MAIN_LANE and every > 1
+            state.update_rate = min(65535, max(0, round(frequency / every)))
+            response.controller.append(state)
+        return response
+
+    # -- switch_controller --------------------------------------------------------------
+    def _switch(self, request: Any, response: Any) -> Any:
+        strict = request.strictness == self._strict
+        timeout = request.timeout.sec + request.timeout.nanosec * 1e-9
+        try:
+            response.ok, response.message = self._do_switch(
+                list(request.activate_controllers), list(request.deactivate_controllers),
+                strict, timeout if timeout > 0 else None,
+            )
+        except RtcfError as exc:  # a locked runner, a transition that did not come back
+            response.ok, response.message = False, str(exc)
+        return response
+
+    def _do_switch(
+        self, activate: list[str], deactivate: list[str], strict: bool, timeout: float | None
+    ) -> tuple[bool, str]:
+        states = {self._short(str(c["name"])): str(c.get("lifecycle", ""))
+                  for c in self._runner.introspect().get("components", [])}
+        problems: list[str] = []
+        lists = []
+        for action, names in (("deactivate", deactivate), ("activate", activate)):
+            found = [n for n in names if n in states]
+            for name in names:
+                if name not in states:
+                    problem = (f"Could not {action} controller with name '{name}' because no "
+                               "controller with this name exists")
+                    if strict:
+                        return False, problem
+                    problems.append(problem)
+            if names and not found:  # best effort: none of a list exists
+                return False, "\n".join(problems)
+            lists.append(found)
+        to_deactivate, to_activate = lists
+        for name in list(to_activate):
+            state = states[name]
+            problem = ""
+            if state == "unconfigured":
+                problem = (f"Controller with name '{name}' is in 'unconfigured' state. The "
+                           "controller needs to be configured to be in 'inactive' state before "
+                           "it can be checked and activated.")
+            elif state == "active" and name not in to_deactivate:
+                problem = f"Controller with name '{name}' is already active."
+            elif state not in ("inactive", "active"):
+                problem = (f"Controller with name '{name}' is not in 'inactive' state. The "
+                           "controller needs to be in 'inactive' state before it can be "
+                           "checked and activated.")
+            if problem:
+                if strict:
+                    return False, problem
+                to_activate.remove(name)
+        for name in list(to_deactivate):
+            if states[name] != "active":
+                problem = (f"Controller with name '{name}' can not be deactivated since it is "
+                           "not active.")
+                if strict:
+                    return False, problem
+                to_deactivate.remove(name)
+        if not to_activate and not to_deactivate:
+            return True, NOTHING_TO_DO
+        return self._transitions(to_deactivate, to_activate, strict, timeout)
+
+    def _transitions(
+        self, to_deactivate: list[str], to_activate: list[str], strict: bool,
+        timeout: float | None,
+    ) -> tuple[bool, str]:
+        """Deactivations, then activations; STRICT: the first failure undoes the rest."""
+        done: list[tuple[str, str]] = []
+        failed: list[str] = []
+        steps = [(n, "deactivate") for n in to_deactivate] + [(n, "activate") for n in to_activate]
+        for name, transition in steps:
+            outcome = self._runner.change_state(self._full(name), transition, timeout)
+            if outcome.ok:
+                done.append((name, transition))
+                continue
+            why = outcome.reason or outcome.result
+            failed.append(f"Could not {transition} controller '{name}': {why}")
+            if strict:
+                undo = {"activate": "deactivate", "deactivate": "activate"}
+                for back, made in reversed(done):
+                    self._runner.change_state(self._full(back), undo[made], timeout)
+                return False, failed[-1] + "; the switch was undone ('STRICT' switch)"
+        if failed and not done:
+            return False, "\n".join(failed)
+        return True, "\n".join(failed)

@@ -1,0 +1,119 @@
+"""The controller manager's services from outside: an rclpy client in this process calls
+``/controller_manager/list_controllers`` and ``switch_controller`` of an ``rtcf launch
+--middleware ros2`` of the controllers' example (simple.launch.xml, configured by its
+ros2_controllers YAML file), as ``ros2 control`` and rqt_controller_manager do."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+from controller_manager_msgs.srv import ListControllers, SwitchController
+from sensor_msgs.msg import JointState
+
+from ... import _proc
+from ..conftest import rtcf_env
+from ..test_parameters import call
+from ..test_topics import spin_until, stop, wait_running
+
+pytestmark = pytest.mark.integration
+
+ROOT = Path(__file__).parents[3]  # the fixture's hardware is tests.ros2.controllers._plants
+LAUNCH = Path(__file__).parent / "fixtures" / "simple.launch.xml"
+STRICT, BEST_EFFORT = SwitchController.Request.STRICT, SwitchController.Request.BEST_EFFORT
+
+
+def _list(node) -> dict[str, tuple[str, str, int, bool]]:
+    res = call(node, ListControllers, "/controller_manager/list_controllers",
+               ListControllers.Request())
+    return {c.name: (c.state, c.type, c.update_rate, c.is_async) for c in res.controller}
+
+
+def _switch(node, activate=(), deactivate=(), strictness=STRICT) -> tuple[bool, str]:
+    req = SwitchController.Request(activate_controllers=list(activate),
+                                   deactivate_controllers=list(deactivate),
+                                   strictness=strictness)
+    res = call(node, SwitchController, "/controller_manager/switch_controller", req, timeout=30)
+    return res.ok, res.message
+
+
+def _states(node) -> dict[str, str]:
+    return {name: row[0] for name, row in _list(node).items()}
+
+
+# the example, and a controller that cannot be activated again once deactivated
+WITH_REFUSER = """<launch>
+  <include file="{launch}">
+    <arg name="frequency" value="200.0"/>
+    <arg name="ros_topics" value="/joint_states"/>
+  </include>
+  <node pkg="rtcf" exec="rt_launcher" name="refuser"
+        args="tests.ros2.controllers._plants RefusesRestart"/>
+</launch>
+"""
+
+
+def test_list_controllers_and_switch_one_off_while_the_others_run(ros_node, tmp_path) -> None:
+    env = rtcf_env()
+    env["PYTHONPATH"] = f"{ROOT}:{env['PYTHONPATH']}"
+    joint_states: list[JointState] = []
+    ros_node.create_subscription(JointState, "/joint_states", joint_states.append, 10)
+    launch = tmp_path / "cm.launch.xml"
+    launch.write_text(WITH_REFUSER.format(launch=LAUNCH))
+    proc = _proc.start_rtcf(env, "launch", launch, "--middleware", "ros2")
+    try:
+        wait_running(proc)
+        listed = _list(ros_node)
+        assert listed.pop("refuser") == (
+            "active", "tests.ros2.controllers._plants.RefusesRestart", 200, False)
+        assert listed == {
+            "arm/hardware": ("active", "tests.ros2.controllers._plants.PositionJoints", 200,
+                             False),
+            "wheel/hardware": ("active", "tests.ros2.controllers._plants.Mass", 200, False),
+            "joint_state_broadcaster": (
+                "active", "joint_state_broadcaster/JointStateBroadcaster", 100, False),
+            "forward_position_controller": (
+                "active", "forward_command_controller/ForwardCommandController", 200, False),
+            "arm_effort_controller": (
+                "active", "effort_controllers/JointGroupEffortController", 200, False),
+            "wheel_pid_controller": ("active", "pid_controller/PidController", 200, False),
+        }
+
+        # STRICT with a name that does not exist: refused, nothing switched
+        ok, message = _switch(ros_node, deactivate=["forward_position_controller", "nope"])
+        assert (ok, message) == (False, "Could not deactivate controller with name 'nope' "
+                                        "because no controller with this name exists")
+        assert _states(ros_node)["forward_position_controller"] == "active"
+
+        # one off: it alone is inactive, and the broadcaster goes on publishing
+        assert _switch(ros_node, deactivate=["forward_position_controller"]) == (True, "")
+        states = _states(ros_node)
+        assert states.pop("forward_position_controller") == "inactive"
+        assert set(states.values()) == {"active"}
+        joint_states.clear()
+        assert spin_until(ros_node, lambda: len(joint_states) >= 5), "no /joint_states"
+
+        # STRICT refuses to activate one that is active already; BEST_EFFORT leaves it
+        # (and an unknown name) out and activates the rest
+        ok, message = _switch(ros_node, activate=["forward_position_controller",
+                                                  "joint_state_broadcaster"])
+        assert (ok, message) == (False, "Controller with name 'joint_state_broadcaster' is "
+                                        "already active.")
+        assert _states(ros_node)["forward_position_controller"] == "inactive"
+        ok, _ = _switch(ros_node, activate=["forward_position_controller",
+                                            "joint_state_broadcaster", "nope"],
+                        strictness=BEST_EFFORT)
+        assert ok
+        assert set(_states(ros_node).values()) == {"active"}
+
+        # STRICT: a transition that fails undoes the switch (the PID comes back on)
+        assert _switch(ros_node, deactivate=["refuser"]) == (True, "")
+        ok, message = _switch(ros_node, activate=["refuser"],
+                              deactivate=["wheel_pid_controller"])
+        assert (ok, message) == (False, "Could not activate controller 'refuser': start() "
+                                        "returned False; the switch was undone ('STRICT' switch)")
+        states = _states(ros_node)
+        assert (states.pop("refuser"), set(states.values())) == ("inactive", {"active"})
+    finally:
+        _, err = stop(proc)
+    assert "[/forward_position_controller]: lifecycle: deactivate: active -> inactive" in err
