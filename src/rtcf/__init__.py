@@ -1,5 +1,9 @@
 """rtcf: real-time control components in Python, wired like ROS nodes, run in one loop."""
 
+from ._core._action_protocol import ActionEvent as ActionEvent
+from ._core._action_protocol import ActionRequest as ActionRequest
+from ._core._action_protocol import GoalStatus as GoalStatus
+from ._core._actions import ActionServer as ActionServer
 from ._core._clock import Clock as Clock
 from ._core._clock import MonotonicClock as MonotonicClock
 from ._core._clock import SimClock as SimClock

@@ -28,6 +28,7 @@ from collections.abc import Callable, Iterable, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any
 
+from ._core._action_protocol import ActionEndpoint, GoalRecord
 from ._core._clock import SimClock
 from ._core._component import Component
 from ._core._errors import ConfigurationError, RtcfError
@@ -39,7 +40,17 @@ from ._core._timing import COL_ITERATION, FIXED_COLUMNS, local_ring
 from ._core._trace import Trace as _Recorder
 from ._launch._files import load_deployment
 
-__all__ = ["InputValues", "SimClock", "Trace", "run_components", "run_launch"]
+__all__ = [
+    "ActionTrace",
+    "Cancel",
+    "Goal",
+    "GoalRecord",
+    "InputValues",
+    "SimClock",
+    "Trace",
+    "run_components",
+    "run_launch",
+]
 
 InputValues = Any
 """What to feed an input topic: a ``list`` or ``tuple`` is one value per iteration
@@ -48,6 +59,36 @@ its time in seconds; anything else (a number, a numpy array, a message) is the v
 of every iteration. Write ``list(array)`` to feed a numpy array value by value."""
 
 _DEFAULT_FREQUENCY = 1000.0  # Hz, when neither ``frequency`` nor ``settings`` says
+
+
+@dataclass(frozen=True)
+class Goal:
+    """A goal sent to an action server: its Goal message, numbered ``id`` (the
+    ``goal_id`` the component sees, and the key of ``trace.actions[name].goals``)."""
+
+    message: Any
+    id: int
+
+
+@dataclass(frozen=True)
+class Cancel:
+    """A request to cancel the goal numbered ``id``."""
+
+    id: int
+
+
+ActionRequests = Mapping[int, "Goal | Cancel | Sequence[Goal | Cancel]"]
+"""What a test sends to one action: iteration -> a Goal, a Cancel, or several (they
+reach the component one per iteration, in order, from that iteration on)."""
+
+
+@dataclass
+class ActionTrace:
+    """What one action's clients saw: ``goals[id]`` is a :class:`GoalRecord`
+    (``accepted``, ``states`` as ``[(iteration, GoalStatus)]``, ``feedback`` as
+    ``[(iteration, message)]``, ``status``, ``result``, ``cancel_accepted``)."""
+
+    goals: dict[int, GoalRecord] = field(default_factory=dict)
 
 
 @dataclass
@@ -69,6 +110,7 @@ class Trace:
     ran: dict[str, list[int]] = field(default_factory=dict)  # name -> iterations it ran in
     warnings: list[str] = field(default_factory=list)
     result: RunResult | None = None  # timing counts, order, contained faults, safe stops
+    actions: dict[str, ActionTrace] = field(default_factory=dict)  # action name -> its goals
 
     def last(self, topic: str) -> Any:
         """The value ``topic`` held after the last iteration."""
@@ -83,6 +125,7 @@ def run_components(
     inputs: Mapping[str, InputValues] | None = None,
     parameters: Mapping[str, Any] | None = None,
     settings: RunnerSettings | None = None,
+    actions: Mapping[str, ActionRequests] | None = None,
 ) -> Trace:
     """Load ``components`` into one runner and run ``iterations`` iterations.
 
@@ -91,6 +134,9 @@ def run_components(
     ``is_first``, ``policy`` (what a launcher gives). ``parameters`` go into the
     runner's parameter tree first (``{"/gain": 2.0}``). ``frequency`` defaults to
     ``settings.frequency``, or 1000 Hz; ``settings`` are the other runner settings.
+    ``actions`` send goals and cancels to action servers, by the action's name and
+    iteration (``{"/jtc/follow_joint_trajectory": {0: Goal(msg, id=1), 80: Cancel(1)}}``);
+    ``trace.actions[name].goals[1]`` tells what became of each.
 
     >>> from rtcf_examples import FirstOrderPlant
     >>> plant = ComponentSpec("plant", FirstOrderPlant, params={"time_constant": 0.1})
@@ -106,7 +152,7 @@ def run_components(
     for key, value in (parameters or {}).items():
         store.set(key, value)
     runner = Runner(settings, clock=SimClock(), parameters=store, name="rt_runner")
-    return _run(runner, specs, iterations, inputs or {}, [])
+    return _run(runner, specs, iterations, inputs or {}, [], actions or {})
 
 
 def run_launch(
@@ -116,6 +162,7 @@ def run_launch(
     duration: float | None = None,
     args: Mapping[str, object] | None = None,
     inputs: Mapping[str, InputValues] | None = None,
+    actions: Mapping[str, ActionRequests] | None = None,
 ) -> Trace:
     """Run the runner of a launch file for ``iterations`` (or ``duration`` seconds).
 
@@ -123,7 +170,7 @@ def run_launch(
     ``["PACKAGE", "FILE"]``, ROS 1 or ROS 2 launch XML. ``args`` are the launch
     arguments (``{"gain": 2.0}`` is ``gain:=2.0``). The file's runner settings apply,
     on the simulated clock; a ``wait_for_trigger`` runner starts at once, as under
-    ``rtcf launch`` with no middleware.
+    ``rtcf launch`` with no middleware. ``actions`` as for :func:`run_components`.
 
     >>> trace = run_launch("rtcf_examples sum_test.launch", 2, inputs={"/rtcf/ros/in": 1.0})
     >>> trace.outputs["/rtcf/ros/out"]
@@ -147,7 +194,8 @@ def run_launch(
     assert iterations is not None
     try:
         return _run(
-            runner, runner_deployment.components, iterations, inputs or {}, deployment.warnings
+            runner, runner_deployment.components, iterations, inputs or {}, deployment.warnings,
+            actions or {},
         )
     except RtcfError as exc:
         if exc.file is None:
@@ -175,6 +223,7 @@ def _run(
     iterations: int,
     inputs: Mapping[str, InputValues],
     warnings: Sequence[str],
+    actions: Mapping[str, ActionRequests],
 ) -> Trace:
     if iterations < 0:
         raise ValueError(f"iterations must be 0 or more, not {iterations}")
@@ -185,6 +234,7 @@ def _run(
         trace.components = components = runner.components
         trace.warnings += runner.graph.warnings
         feeders = _feeders(components, inputs, runner)
+        feeders += _action_clients(components, actions, runner, trace)
         if runner.settings.mode == "wait_for_trigger":
             runner.activate()  # nothing else would trigger it here
         recorder: list[_Recorder] = []
@@ -250,6 +300,64 @@ def _feeders(
             f"no component reads {', '.join(unread)}; the inputs you can feed: {read}"
         )
     return [_feeder(readers[t], _values(v), runner) for t, v in inputs.items()]
+
+
+def _action_clients(
+    components: Mapping[str, Component],
+    actions: Mapping[str, ActionRequests],
+    runner: Runner,
+    trace: Trace,
+) -> list[Callable[[], None]]:
+    """Per action: a feeder of its requests input (one request per iteration, once
+    the server took the last), and a tap on its events output (every event)."""
+    servers = {s.name: s for c in components.values() for s in c._rtcf_actions.values()}
+    feeders = []
+    state = runner.state
+    for name, requests in actions.items():
+        server = servers.get(name)
+        if server is None:
+            served = ", ".join(sorted(servers)) or "none"
+            raise ConfigurationError(
+                f"no component serves the action {name!r}; the actions served: {served}"
+            )
+        endpoint = ActionEndpoint(name)
+        trace.actions[name] = ActionTrace(endpoint.goals)
+        feeders.append(_action_feeder(server._requests, endpoint, requests, runner))
+
+        def tap(event: Any, _endpoint: ActionEndpoint = endpoint) -> None:
+            _endpoint.receive(event, state.iteration)
+
+        server._events._tap = tap
+    return feeders
+
+
+def _action_feeder(
+    port: InputPort[Any], endpoint: ActionEndpoint, requests: ActionRequests, runner: Runner
+) -> Callable[[], None]:
+    state = runner.state
+    waiting: list[Any] = []
+    by_iteration = {
+        i: list(r) if isinstance(r, (list, tuple)) else [r] for i, r in requests.items()
+    }
+
+    def feed() -> None:
+        waiting.extend(by_iteration.get(state.iteration, ()))
+        if waiting and not port.has_new_data:  # the server took the last one
+            item = waiting.pop(0)
+            if isinstance(item, Goal):
+                req = endpoint.goal_request(item.message, item.id)
+            elif isinstance(item, Cancel):
+                req = endpoint.cancel_request(item.id)
+            else:
+                raise ConfigurationError(
+                    f"action {endpoint.name!r}: {item!r} is neither a testing.Goal nor a "
+                    "testing.Cancel"
+                )
+            slot = port._slot
+            slot.value = req
+            slot.seq += 1
+
+    return feed
 
 
 def _values(spec: InputValues) -> Callable[[int, float], Any]:

@@ -6,6 +6,8 @@ import types
 
 import rtcf
 from rtcf._core import (
+    _action_protocol,
+    _actions,
     _clock,
     _component,
     _errors,
@@ -19,6 +21,10 @@ from rtcf._core import (
 )
 
 EXPECTED = {
+    "ActionEvent": _action_protocol.ActionEvent,
+    "ActionRequest": _action_protocol.ActionRequest,
+    "GoalStatus": _action_protocol.GoalStatus,
+    "ActionServer": _actions.ActionServer,
     "Clock": _clock.Clock,
     "MonotonicClock": _clock.MonotonicClock,
     "SimClock": _clock.SimClock,
@@ -87,7 +93,8 @@ def test_testing_module_exports_exactly_these() -> None:
     import rtcf.testing
 
     assert sorted(rtcf.testing.__all__) == [
-        "InputValues", "SimClock", "Trace", "run_components", "run_launch"
+        "ActionTrace", "Cancel", "Goal", "GoalRecord", "InputValues", "SimClock", "Trace",
+        "run_components", "run_launch"
     ]
     public = {n for n in vars(rtcf.testing) if not n.startswith("_")}
     assert set(rtcf.testing.__all__) <= public

@@ -24,6 +24,8 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any, TypeVar
 
+from ._action_protocol import ActionEvent, ActionRequest
+from ._actions import ActionServer
 from ._errors import ComponentError
 from ._log import ComponentLogger, LogRing, RecordSink
 from ._loop_state import LoopState
@@ -46,6 +48,7 @@ class Component:
     _rtcf_resolver: Resolver
     _rtcf_inputs: dict[str, InputPort[Any]]
     _rtcf_outputs: dict[str, OutputPort[Any]]
+    _rtcf_actions: dict[str, ActionServer]
     _rtcf_configured: bool
     _rtcf_every: int = 1  # runs every this many iterations (its launcher's rate or every)
     # while configure runs again (lifecycle): the port names declared so far
@@ -108,6 +111,43 @@ class Component:
         """Declare an output port (in ``configure``); its topic is ``name`` resolved."""
         port: OutputPort[T] = OutputPort(self.full_name, name, type_, self._rtcf_state)
         return self._rtcf_add_port(port, self._rtcf_outputs)
+
+    def add_action_server(
+        self, name: str, action_type: type, *, max_goals: int = 1
+    ) -> ActionServer:
+        """Serve the action ``name`` (in ``configure``): goals and cancels come in through
+        ``request()``, feedback and results go out; at most ``max_goals`` goals are open at
+        once. ``action_type`` is a ROS 2 action class, or any class with ``Goal``,
+        ``Result`` and ``Feedback``. Two ports carry it: ``<name>/_action/requests`` and
+        ``<name>/_action/events``."""
+        missing = [k for k in ("Goal", "Result", "Feedback") if not hasattr(action_type, k)]
+        if missing:
+            raise ComponentError(
+                f"component {self.full_name!r}: action {name!r}: {action_type!r} has no "
+                f"{', '.join(missing)}; pass an action type such as "
+                "control_msgs.action.FollowJointTrajectory",
+                component=self.full_name,
+            )
+        if not isinstance(max_goals, int) or max_goals < 1:
+            raise ComponentError(
+                f"component {self.full_name!r}: action {name!r}: max_goals must be an int "
+                f">= 1, not {max_goals!r}",
+                component=self.full_name,
+            )
+        problem = validate_name(name, what=f"component {self.full_name!r}: action name")
+        if problem:
+            raise ComponentError(problem, component=self.full_name)
+        requests = self.add_input(f"{name}/_action/requests", ActionRequest)
+        events = self.add_output(f"{name}/_action/events", ActionEvent)
+        old = self._rtcf_actions.get(name)
+        if old is not None and self._rtcf_redeclared is not None:
+            return old  # configure() again: the same server, its table as it is
+        server = ActionServer(
+            self.full_name, self._rtcf_resolver.resolve(name), action_type, requests, events,
+            max_goals, self._rtcf_state,
+        )
+        self._rtcf_actions[name] = server
+        return server
 
     def _rtcf_add_port(self, port: Any, table: dict[str, Any]) -> Any:
         if self._rtcf_redeclared is not None:
@@ -246,6 +286,7 @@ def _attach(
     component._rtcf_resolver = resolver
     component._rtcf_inputs = {}
     component._rtcf_outputs = {}
+    component._rtcf_actions = {}
     component._rtcf_configured = False
     component._rtcf_every = every
 

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterable, Sequence
 
+from ._actions import abort_open
 from ._components import Components, Loaded
 from ._errors import ComponentError
 from ._lifecycle import (
@@ -147,7 +148,7 @@ class Transitions:
             for hook in hooks:
                 try:
                     self._notices.observe(name, hook)
-                    getattr(entry.component, hook)()
+                    _call(entry.component, hook)
                 except Exception as exc:
                     err = ComponentError(
                         f"component {name!r}: {hook}() raised {type(exc).__name__}: {exc}",
@@ -205,7 +206,7 @@ class Transitions:
         """Run a lifecycle hook: success, failure (returned False) or error (raised)."""
         try:
             self._notices.observe(entry.spec.full_name, hook)
-            ok = getattr(entry.component, hook)()
+            ok = _call(entry.component, hook)
         except Exception as exc:
             return ERROR, f"{hook}() raised {type(exc).__name__}: {exc}"
         if ok is False:
@@ -238,6 +239,15 @@ class Transitions:
             comp._rtcf_configured = True
             params.previous, params.declared, params.sealed = None, first, True
         return result, reason
+
+
+def _call(component: object, hook: str) -> object:
+    """Run one hook; after ``stop`` (the component runs no more) its open goals end."""
+    try:
+        return getattr(component, hook)()
+    finally:
+        if hook == "stop":
+            abort_open(component)
 
 
 # what unloading or shutting down runs, by lifecycle state (a transition state: a hook

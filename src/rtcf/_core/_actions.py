@@ -1,0 +1,236 @@
+"""An action server served from the loop: goals and cancels in, decisions and results out.
+
+``Component.add_action_server`` returns an :class:`ActionServer`. It sits on two
+ordinary ports (``<action>/_action/requests`` in, ``<action>/_action/events`` out), so
+the graph, recordings and lanes see nothing new, and it keeps the goals' states in a
+table preallocated for ``max_goals`` open goals, moved only as rcl_action's state
+machine allows (:mod:`._action_protocol`). A call the protocol forbids raises
+:class:`ComponentError` in ``update``, in-process and on ROS alike.
+
+The real-time path: ``request()`` with nothing waiting is one compare; a decision
+moves a table entry and writes one event (the port's tap carries it to a bridge).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+from ._action_protocol import (
+    ABORTED,
+    CANCEL,
+    CANCELED,
+    CANCELING,
+    EXECUTING,
+    FEEDBACK,
+    FLAG_ACCEPTED,
+    FLAG_CANCEL,
+    GOAL,
+    RESPONSE,
+    RESULT,
+    SUCCEEDED,
+    UNKNOWN,
+    ActionEvent,
+    ActionRequest,
+    GoalStatus,
+    next_status,
+)
+from ._errors import ComponentError
+from ._loop_state import LoopState
+from ._ports import InputPort, OutputPort
+
+_FREE = -1  # a table entry no goal holds
+
+
+class ActionServer:
+    """One action a component serves: ``request()`` the next goal or cancel, decide
+    it (``accept``/``reject``, ``accept_cancel``/``reject_cancel``) in the same
+    iteration, ``publish_feedback`` while a goal runs, and end it with ``succeed``,
+    ``abort`` or ``canceled``."""
+
+    def __init__(
+        self,
+        component: str,
+        name: str,
+        action_type: type,
+        requests: InputPort[ActionRequest],
+        events: OutputPort[ActionEvent],
+        max_goals: int,
+        state: LoopState,
+    ) -> None:
+        self.component = component
+        self.name = name  # the action's resolved name, what a client calls
+        self.type = action_type
+        self.max_goals = max_goals
+        self._requests = requests
+        self._events = events
+        self._state = state
+        self._ids = [_FREE] * max_goals  # the open goals' ids...
+        self._status = [UNKNOWN] * max_goals  # ... and their states
+        self._active: tuple[int, ...] = ()
+        self._pending: ActionRequest | None = None  # handed out, not yet decided
+
+    # -- requests and decisions ---------------------------------------------------
+    def request(self) -> ActionRequest | None:
+        """The next goal or cancel (at most one per iteration, in arrival order), or
+        None. Decide it in this iteration."""
+        port = self._requests
+        if not port.has_new_data:
+            return None
+        req = port.read()
+        if req is None:
+            return None
+        if self._pending is not None:
+            raise self._error(
+                f"request {self._pending!r} of iteration {self._pending.iteration} was never "
+                "decided; answer each request in the iteration request() returns it"
+            )
+        if req.kind == CANCEL and self._index(req.goal_id) < 0:
+            # the goal ended already (its result crossed the cancel): refused for it
+            self._write(RESPONSE, req.goal_id, UNKNOWN, None, FLAG_CANCEL)
+            return None
+        req.iteration = self._state.iteration
+        self._pending = req
+        return req
+
+    def accept(self, req: ActionRequest, preempt: Any = None) -> None:
+        """Accept a goal: it is EXECUTING at once. With ``preempt=result``, every other
+        open goal is then ABORTED with that result (a newer goal replaces them)."""
+        self._decide(req, GOAL, "accept")
+        goal_id = req.goal_id
+        if preempt is None and self._index(_FREE) < 0:
+            raise self._error(
+                f"accept(goal {goal_id}): max_goals={self.max_goals} goals are open; "
+                "reject it, accept it with preempt=result, or raise max_goals"
+            )
+        if self._index(goal_id) >= 0:
+            raise self._error(f"accept(goal {goal_id}): goal {goal_id} is open already")
+        self._write(RESPONSE, goal_id, EXECUTING, None, FLAG_ACCEPTED)
+        if preempt is not None:
+            for other in self._active:
+                self._end(other, ABORTED, preempt, "accept(preempt=...)")
+        i = self._index(_FREE)
+        self._ids[i] = goal_id
+        self._status[i] = EXECUTING
+        self._active = (*self._active, goal_id)  # decisions are rare: built then, not per read
+
+    def reject(self, req: ActionRequest) -> None:
+        """Refuse a goal: it never runs."""
+        self._decide(req, GOAL, "reject")
+        self._write(RESPONSE, req.goal_id, UNKNOWN, None, 0)
+
+    def accept_cancel(self, req: ActionRequest) -> None:
+        """Agree to cancel: the goal is CANCELING until ``canceled`` (or ``succeed``,
+        ``abort``) ends it."""
+        self._decide(req, CANCEL, "accept_cancel")
+        i = self._move(req.goal_id, CANCELING, "accept_cancel")
+        self._write(RESPONSE, req.goal_id, CANCELING, None, FLAG_CANCEL | FLAG_ACCEPTED)
+        self._status[i] = CANCELING
+
+    def reject_cancel(self, req: ActionRequest) -> None:
+        """Refuse to cancel: the goal goes on."""
+        self._decide(req, CANCEL, "reject_cancel")
+        i = self._index(req.goal_id)
+        status = self._status[i] if i >= 0 else UNKNOWN
+        self._write(RESPONSE, req.goal_id, status, None, FLAG_CANCEL)
+
+    # -- running goals ----------------------------------------------------------------
+    @property
+    def active(self) -> tuple[int, ...]:
+        """The open goals' ids (EXECUTING or CANCELING), oldest first."""
+        return self._active
+
+    def status(self, goal_id: int) -> GoalStatus:
+        """An open goal's state (UNKNOWN once it ended, or if it never was)."""
+        i = self._index(goal_id)
+        return GoalStatus(self._status[i]) if i >= 0 else GoalStatus.UNKNOWN
+
+    def publish_feedback(self, goal_id: int, feedback: Any) -> None:
+        """Send ``feedback`` (the action's Feedback message) about an open goal."""
+        i = self._index(goal_id)
+        if i < 0:
+            raise self._error(f"publish_feedback(goal {goal_id}): goal {goal_id} is not open")
+        self._write(FEEDBACK, goal_id, self._status[i], feedback, 0)
+
+    def succeed(self, goal_id: int, result: Any = None) -> None:
+        """End a goal SUCCEEDED with ``result`` (None: an empty Result)."""
+        self._end(goal_id, SUCCEEDED, result, "succeed")
+
+    def abort(self, goal_id: int, result: Any = None) -> None:
+        """End a goal ABORTED with ``result``."""
+        self._end(goal_id, ABORTED, result, "abort")
+
+    def canceled(self, goal_id: int, result: Any = None) -> None:
+        """End a CANCELING goal CANCELED with ``result``."""
+        self._end(goal_id, CANCELED, result, "canceled")
+
+    # -- the framework's ---------------------------------------------------------------
+    def _abort_open(self) -> None:
+        """After ``stop``: a request left undecided is rejected, open goals ABORTED."""
+        req, self._pending = self._pending, None
+        if req is not None:
+            flags = FLAG_CANCEL if req.kind == CANCEL else 0
+            self._write(RESPONSE, req.goal_id, UNKNOWN, None, flags)
+        for goal_id in self._active:
+            self._end(goal_id, ABORTED, None, "stop")
+
+    def _decide(self, req: ActionRequest, kind: int, verb: str) -> None:
+        if req is not self._pending:
+            raise self._error(
+                f"{verb}({req!r}): not the request request() returned last, or decided already; "
+                "decide each request once, in the iteration request() returns it"
+            )
+        if req.kind != kind:
+            other = "accept/reject" if req.kind == GOAL else "accept_cancel/reject_cancel"
+            raise self._error(f"{verb}({req!r}): a {req!r} is decided with {other}")
+        if req.iteration != self._state.iteration:
+            raise self._error(
+                f"{verb}({req!r}): it came in iteration {req.iteration}; decide a request in "
+                "the iteration request() returns it"
+            )
+        self._pending = None
+
+    def _end(self, goal_id: int, status: GoalStatus, result: Any, verb: str) -> None:
+        i = self._move(goal_id, status, verb)
+        self._ids[i] = _FREE
+        self._status[i] = UNKNOWN
+        self._active = tuple(g for g in self._active if g != goal_id)
+        self._write(RESULT, goal_id, status, result, 0)
+
+    def _move(self, goal_id: int, status: GoalStatus, verb: str) -> int:
+        i = self._index(goal_id)
+        if i < 0:
+            raise self._error(f"{verb}(goal {goal_id}): goal {goal_id} is not open")
+        if next_status(self._status[i], status) is None:
+            now = GoalStatus(self._status[i]).name
+            raise self._error(
+                f"{verb}(goal {goal_id}): the action protocol forbids {now} -> {status.name}"
+            )
+        return i
+
+    def _index(self, goal_id: int) -> int:
+        ids = self._ids
+        for i in range(len(ids)):
+            if ids[i] == goal_id:
+                return i
+        return -1
+
+    def _write(self, kind: int, goal_id: int, status: int, message: Any, flags: int) -> None:
+        self._events.write(ActionEvent(kind, goal_id, status, message, flags))
+
+    def _error(self, message: str) -> ComponentError:
+        return ComponentError(
+            f"component {self.component!r}, action {self.name!r}: {message}",
+            component=self.component,
+        )
+
+    def __repr__(self) -> str:
+        return f"<ActionServer {self.name} [{self.type.__name__}]>"
+
+
+def abort_open(component: Any) -> None:
+    """After a component's ``stop``: its action servers abort what is open."""
+    for server in getattr(component, "_rtcf_actions", {}).values():
+        server._abort_open()
+
+
+__all__ = ["CANCEL", "GOAL", "ActionServer", "abort_open"]
