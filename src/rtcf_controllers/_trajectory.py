@@ -229,6 +229,31 @@ class Trajectory:
         return k
 
 
+def hold(
+    position: np.ndarray,
+    velocity: np.ndarray | None,
+    acceleration: np.ndarray | None,
+    commands: Sequence[str],
+    *,
+    interpolate: bool = True,
+) -> Trajectory:
+    """A trajectory of one point, due at once: what the controller holds (ros2_controllers'
+    hold message). Velocities (zero if not given) where a ``velocity`` or
+    ``acceleration`` command needs them, accelerations where an ``acceleration`` one
+    does, zero efforts for an ``effort`` one."""
+    n = position.shape[0]
+    if velocity is None and ("velocity" in commands or "acceleration" in commands):
+        velocity = np.zeros(n)
+    if acceleration is None and "acceleration" in commands:
+        acceleration = np.zeros(n)
+    effort = np.zeros((1, n)) if "effort" in commands else None
+    return Trajectory(
+        [0.0], position[None, :],
+        None if velocity is None else velocity[None, :],
+        None if acceleration is None else acceleration[None, :], effort,
+        interpolate=interpolate)
+
+
 def _fill(out: np.ndarray, values: np.ndarray | None, k: int = -1) -> None:
     if values is None:
         out.fill(0.0)
