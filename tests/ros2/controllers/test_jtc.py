@@ -130,6 +130,17 @@ def test_cmd_timeout_holds_where_the_arm_is_once_the_end_is_that_old() -> None:
     assert commands[99].tolist() == pytest.approx([0.58, 0.58])  # held where it got stuck
 
 
+def test_a_lone_effort_command_goes_through_the_pid() -> None:
+    msg = _trajectory(JOINTS, (1.0, [1.0, 2.0]))
+    gains = {"a": {"p": 100.0, "i": 10.0, "d": 5.0}, "b": {"p": 1.0}}
+    trace = _run(11, {"command_interfaces": ["effort"], "gains": gains},
+                 plant={"stuck_s": 0.0}, inputs={TOPIC: _once(msg)})
+    # the arm stays at 0: errors [t, 2t] and [1, 2]/s; the integral sums i dt e
+    integral = 10.0 * 0.01 * sum(0.01 * k for k in range(11))
+    effort = trace.outputs["/effort_command"][10].tolist()
+    assert effort == pytest.approx([100.0 * 0.1 + integral + 5.0 * 1.0, 1.0 * 0.2])
+
+
 # -- the follow_joint_trajectory action ---------------------------------------------------
 Result = FollowJointTrajectory.Result
 
@@ -187,8 +198,11 @@ def test_a_path_violation_aborts_and_the_arm_holds_where_it_is() -> None:
     record = _goals(trace)[goal.id]
     assert record.status == GoalStatus.ABORTED
     assert record.result.error_code == Result.PATH_TOLERANCE_VIOLATED
-    assert 24 <= record.states[-1][0] <= 26  # 0.05 behind the stuck arm (0.19)
-    assert trace.outputs["/position_command"][59].tolist() == pytest.approx([0.19, -0.38])
+    aborted = record.states[-1][0]
+    assert 24 <= aborted <= 26  # 0.05 behind the stuck arm (0.19)
+    commands = trace.outputs["/position_command"]
+    assert commands[aborted] is commands[aborted - 1]  # no command from the violating sample
+    assert commands[59].tolist() == pytest.approx([0.19, -0.38])
 
 
 def test_outside_the_goal_tolerance_after_goal_time_aborts() -> None:
