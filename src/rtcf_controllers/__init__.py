@@ -8,7 +8,27 @@ types and parameter names of the ros2_controllers controller it stands for (its
 ``ros2_control_type``). A team's ros2_controllers YAML file configures them
 unchanged: ``<param from="controllers.yaml"/>`` in a ROS 2 launch file.
 
-Load them from a launch file with ``args="rtcf_controllers ClassName"``.
+Load them from a launch file with ``args="rtcf_controllers ClassName"``
+(docs/controllers.md). Their message types are imported when they are configured, so
+importing this package needs no ROS.
 """
 
-__all__: list[str] = []
+from .forward_command_controller import (
+    ForwardCommandController,
+    JointGroupEffortController,
+    JointGroupPositionController,
+    JointGroupVelocityController,
+)
+from .joint_state_broadcaster import JointStateBroadcaster
+from .joint_trajectory_controller import JointTrajectoryController
+from .pid_controller import PidController
+
+__all__ = [
+    "ForwardCommandController",
+    "JointGroupEffortController",
+    "JointGroupPositionController",
+    "JointGroupVelocityController",
+    "JointStateBroadcaster",
+    "JointTrajectoryController",
+    "PidController",
+]

@@ -8,12 +8,12 @@ what rtcf does not support is refused here, naming the parameter.
 from __future__ import annotations
 
 import dataclasses
-import math
 from typing import Any
 
 import numpy as np
 
 from ._params import ControllerParameters
+from ._pid import Gains, Pid
 from ._tolerances import Tolerances, from_parameters
 
 COMMANDS = ("position", "velocity", "acceleration", "effort")
@@ -24,7 +24,7 @@ def _interfaces(p: ControllerParameters, name: str, allowed: tuple[str, ...]) ->
     chosen = p.names(name, [], non_empty=True)
     wrong = [i for i in chosen if i not in allowed]
     if wrong:
-        raise p._error(name, chosen, "a list of " + ", ".join(allowed))
+        raise p.error(name, chosen, "a list of " + ", ".join(allowed))
     return chosen
 
 
@@ -46,39 +46,24 @@ def _combination(commands: list[str], states: list[str]) -> str | None:
     return None
 
 
-class Pid:
-    """control_toolbox's Pid per joint (p, i, d, integral and output clamps)."""
+class Pids:
+    """control_toolbox's Pid per joint (``gains.<joint>.*``, as pid_controller reads
+    them), and JTC's own ``gains.<joint>.ff_velocity_scale``."""
 
     def __init__(self, p: ControllerParameters, joints: list[str]) -> None:
-        def gains(name: str, default: float) -> np.ndarray:
-            return np.array([p.number(f"gains.{j}.{name}", default) for j in joints])
-
-        self.p, self.i, self.d = gains("p", 0.0), gains("i", 0.0), gains("d", 0.0)
-        clamp = gains("i_clamp", math.inf)  # the deprecated symmetric one
-        self.i_max = np.minimum(gains("i_clamp_max", math.inf), clamp)
-        self.i_min = np.maximum(gains("i_clamp_min", -math.inf), -clamp)
-        self.u_max, self.u_min = gains("u_clamp_max", math.inf), gains("u_clamp_min", -math.inf)
-        self.ff_velocity_scale = gains("ff_velocity_scale", 0.0)
-        self.integral = np.zeros(len(joints))
-        self._term = np.zeros(len(joints))
+        self.pids = [Pid(Gains.read(p, j)) for j in joints]
+        self.ff_velocity_scale = np.array(
+            [p.number(f"gains.{j}.ff_velocity_scale", 0.0) for j in joints])
 
     def reset(self) -> None:
-        self.integral.fill(0.0)
+        for pid in self.pids:
+            pid.reset()
 
     def compute(self, error: np.ndarray, error_dot: np.ndarray, dt: float,
                 out: np.ndarray) -> None:
-        """Adds the PID's command to ``out``."""
-        term = self._term
-        np.multiply(self.i, error, out=term)
-        term *= dt
-        self.integral += term
-        np.clip(self.integral, self.i_min, self.i_max, out=self.integral)
-        np.multiply(self.p, error, out=term)
-        term += self.integral
-        out += term
-        np.multiply(self.d, error_dot, out=term)
-        out += term
-        np.clip(out, self.u_min, self.u_max, out=out)
+        """Adds each joint's PID command to ``out``."""
+        for j, pid in enumerate(self.pids):
+            out[j] += pid.compute_with_rate(float(error[j]), float(error_dot[j]), dt)
 
 
 @dataclasses.dataclass
@@ -96,7 +81,7 @@ class Settings:
     state_every: int  # iterations between controller_state messages (0: never)
     defaults: Tolerances
     cmd_timeout: float  # 0: off
-    pid: Pid | None  # for a lone velocity or effort command
+    pid: Pids | None  # for a lone velocity or effort command
     velocity_error: bool  # which errors ros2_controllers computes (the rest stay 0)
     acceleration_error: bool
 
@@ -107,18 +92,18 @@ def read_settings(component: Any) -> Settings:
     joints = p.names("joints", [], non_empty=True)
     command_joints = p.names("command_joints", [])
     if command_joints and command_joints != joints:
-        raise p._error("command_joints", command_joints,
+        raise p.error("command_joints", command_joints,
                        "[] or the joints themselves (a subset is not supported by rtcf)")
     command_interfaces = _interfaces(p, "command_interfaces", COMMANDS)
     state_interfaces = _interfaces(p, "state_interfaces", _STATES)
     problem = _combination(command_interfaces, state_interfaces)
     if problem:
-        raise p._error("command_interfaces", command_interfaces,
+        raise p.error("command_interfaces", command_interfaces,
                        f"interfaces that go together: {problem}")
     for unsupported in ("allow_integration_in_goal_trajectories",
                         "constraints.decelerate_on_cancel"):
         if p.flag(unsupported, False):
-            raise p._error(unsupported, True, "false (rtcf does not support it yet)")
+            raise p.error(unsupported, True, "false (rtcf does not support it yet)")
     open_loop = p.flag("open_loop_control", False)
     monitor_rate = p.number("action_monitor_rate", 20.0, positive=True)
     state_rate = p.number("state_publish_rate", 50.0)
@@ -143,7 +128,7 @@ def read_settings(component: Any) -> Settings:
         state_every=max(1, round(frequency / state_rate)) if state_rate > 0 else 0,
         defaults=defaults,
         cmd_timeout=cmd_timeout if cmd_timeout > defaults.goal_time else 0.0,
-        pid=Pid(p, joints) if use_pid else None,
+        pid=Pids(p, joints) if use_pid else None,
         velocity_error="velocity" in states and bool({"velocity", "effort"} & commands),
         acceleration_error="acceleration" in states and "acceleration" in commands,
     )

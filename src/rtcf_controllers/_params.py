@@ -32,7 +32,8 @@ class ControllerParameters:
                 return params.get("~" + candidate)
         return _MISSING
 
-    def _error(self, name: str, value: Any, expected: str) -> rtcf.ConfigurationError:
+    def error(self, name: str, value: Any, expected: str) -> rtcf.ConfigurationError:
+        """The error that names the component, ``name``, its ``value`` and what to give."""
         return rtcf.ConfigurationError(
             f"component {self._component.full_name!r}: parameter {name!r} is {value!r}; "
             f"give {expected} (as the ros2_controllers YAML file would)"
@@ -51,47 +52,47 @@ class ControllerParameters:
         value = self._raw(name)
         if value is _MISSING:
             if default is _MISSING:
-                raise self._error(name, None, "a number")
+                raise self.error(name, None, "a number")
             value = default
         if isinstance(value, bool) or not isinstance(value, (int, float)):
-            raise self._error(name, value, "a number")
+            raise self.error(name, value, "a number")
         number = float(value)
         if math.isnan(number) and not nan:
-            raise self._error(name, value, "a number (not NaN)")
+            raise self.error(name, value, "a number (not NaN)")
         if positive and not number > 0.0:
-            raise self._error(name, value, "a number greater than 0")
+            raise self.error(name, value, "a number greater than 0")
         return number
 
     def integer(self, name: str, default: int = _MISSING) -> int:
         value = self._raw(name)
         if value is _MISSING:
             if default is _MISSING:
-                raise self._error(name, None, "an integer")
+                raise self.error(name, None, "an integer")
             return default
         if isinstance(value, bool) or not isinstance(value, int):
-            raise self._error(name, value, "an integer")
+            raise self.error(name, value, "an integer")
         return value
 
     def flag(self, name: str, default: bool = _MISSING) -> bool:
         value = self._raw(name)
         if value is _MISSING:
             if default is _MISSING:
-                raise self._error(name, None, "true or false")
+                raise self.error(name, None, "true or false")
             return default
         if not isinstance(value, bool):
-            raise self._error(name, value, "true or false")
+            raise self.error(name, value, "true or false")
         return value
 
     def text(self, name: str, default: str = _MISSING, *, choices: Sequence[str] = ()) -> str:
         value = self._raw(name)
         if value is _MISSING:
             if default is _MISSING:
-                raise self._error(name, None, "a string")
+                raise self.error(name, None, "a string")
             value = default
         if not isinstance(value, str):
-            raise self._error(name, value, "a string")
+            raise self.error(name, value, "a string")
         if choices and value not in choices:
-            raise self._error(name, value, "one of " + ", ".join(repr(c) for c in choices))
+            raise self.error(name, value, "one of " + ", ".join(repr(c) for c in choices))
         return value
 
     def names(
@@ -101,14 +102,14 @@ class ControllerParameters:
         value = self._raw(name)
         if value is _MISSING:
             if default is _MISSING:
-                raise self._error(name, None, "a list of strings")
+                raise self.error(name, None, "a list of strings")
             value = list(default)
         if not isinstance(value, (list, tuple)) or not all(isinstance(v, str) for v in value):
-            raise self._error(name, value, "a list of strings")
+            raise self.error(name, value, "a list of strings")
         if non_empty and not value:
-            raise self._error(name, value, "a list of at least one name")
+            raise self.error(name, value, "a list of at least one name")
         if len(set(value)) != len(value):
-            raise self._error(name, value, "a list without duplicates")
+            raise self.error(name, value, "a list without duplicates")
         return list(value)
 
     def numbers(self, name: str, default: Sequence[float] = _MISSING) -> list[float]:
@@ -116,10 +117,10 @@ class ControllerParameters:
         value = self._raw(name)
         if value is _MISSING:
             if default is _MISSING:
-                raise self._error(name, None, "a list of numbers")
+                raise self.error(name, None, "a list of numbers")
             value = list(default)
         if not isinstance(value, (list, tuple)) or not all(
             isinstance(v, (int, float)) and not isinstance(v, bool) for v in value
         ):
-            raise self._error(name, value, "a list of numbers")
+            raise self.error(name, value, "a list of numbers")
         return [float(v) for v in value]

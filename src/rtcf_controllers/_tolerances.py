@@ -53,7 +53,7 @@ def from_parameters(params: ControllerParameters, joints: Sequence[str]) -> Tole
         goal[1, j] = stopped
     goal_time = params.number("constraints.goal_time", 0.0)
     if goal_time < 0.0:
-        raise params._error("constraints.goal_time", goal_time, "a number of seconds >= 0")
+        raise params.error("constraints.goal_time", goal_time, "a number of seconds >= 0")
     return Tolerances(path, goal, goal_time)
 
 

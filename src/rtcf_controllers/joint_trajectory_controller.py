@@ -20,6 +20,7 @@ import rtcf
 from . import _jtc_messages as results
 from ._jtc_messages import Messages
 from ._jtc_settings import COMMANDS, read_settings
+from ._message_types import message_class
 from ._tolerances import Checker, Tolerances, for_goal
 from ._trajectory import Trajectory, check, duration_s, from_message, hold
 
@@ -30,15 +31,14 @@ class JointTrajectoryController(rtcf.Component):
     ros2_control_type = "joint_trajectory_controller/JointTrajectoryController"
 
     def configure(self) -> None:
-        try:
-            from control_msgs.action import FollowJointTrajectory
-            from control_msgs.msg import JointTrajectoryControllerState
-            from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
-        except ImportError:
-            raise rtcf.ConfigurationError(
-                f"component {self.full_name!r}: JointTrajectoryController needs control_msgs "
-                "and trajectory_msgs: set up ROS 2 with bash scripts/setup-ros2 (docs/ros2.md)"
-            ) from None
+        JointTrajectoryControllerState = message_class(
+            self, "control_msgs.msg", "JointTrajectoryControllerState")
+        from control_msgs.action import FollowJointTrajectory  # control_msgs imports: checked
+
+        for part in (FollowJointTrajectory.Feedback, FollowJointTrajectory.Result):
+            part()  # their first message runs their imports: here, not in the loop
+        JointTrajectory = message_class(self, "trajectory_msgs.msg", "JointTrajectory")
+        JointTrajectoryPoint = message_class(self, "trajectory_msgs.msg", "JointTrajectoryPoint")
         self.cfg = cfg = read_settings(self)
         self.joints = joints = cfg.joints
         self.pid = cfg.pid

@@ -1,0 +1,112 @@
+"""forward_command_controller and its position/velocity/effort equivalents.
+
+ros2_controllers' ``forward_command_controller/ForwardCommandController`` passes the
+values of ``~/commands`` (``std_msgs/Float64MultiArray``) on to one command interface of
+each joint; ``position_controllers/JointGroupPositionController`` and its velocity and
+effort siblings are the same with ``interface_name`` fixed. Here the command interface
+is an output port of float64 arrays, ``<interface_name>_command`` (docs/controllers.md).
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+import rtcf
+
+from ._message_types import message_class
+from ._params import ControllerParameters
+from ._throttle import Throttled
+
+
+class ForwardCommandController(rtcf.Component):
+    """Writes the last accepted ``~/commands`` to ``<interface_name>_command``, one
+    value per joint in the order of ``joints``, every time it runs.
+
+    A command of the wrong length (not one value per joint) or with a value that is
+    not finite is refused: logged with what it holds (rate-limited when it repeats),
+    and the last accepted command stays. Nothing is written before the first accepted
+    command. Commands that arrive while the controller is inactive are dropped when it
+    starts, as ros2_controllers' are at activation.
+    """
+
+    ros2_control_type = "forward_command_controller/ForwardCommandController"
+    fixed_interface = ""  # the JointGroup*Controller's own interface_name
+
+    def configure(self) -> None:
+        p = ControllerParameters(self)
+        self.joints = p.names("joints", [], non_empty=True)
+        given = p.text("interface_name", "")
+        interface = self.fixed_interface or given
+        if not interface:
+            raise rtcf.ConfigurationError(
+                f"component {self.full_name!r}: parameter 'interface_name' is empty; give the "
+                "command interface to write (position, velocity, effort, ...)"
+            )
+        if self.fixed_interface and given and given != self.fixed_interface:
+            self.log.nonrt.warning(
+                "interface_name %r ignored: %s commands %s", given, type(self).__name__,
+                self.fixed_interface,
+            )
+        self.interface_name = interface
+        message = message_class(self, "std_msgs.msg", "Float64MultiArray")
+        self.commands = self.add_input("~/commands", message)
+        self.command = self.add_output(f"{interface}_command", np.ndarray)
+        self.value: np.ndarray | None = None
+        self.refused = Throttled(self)
+
+    def start(self) -> None:
+        self.commands.read()  # what came while inactive is not applied (ros2's reset)
+        self.value = None
+
+    def update(self) -> None:
+        if self.commands.has_new_data:
+            self._take(self.commands.read())
+        value = self.value
+        if value is not None:
+            self.command.write(value)
+
+    def _take(self, msg: object) -> None:
+        data = msg.data  # type: ignore[attr-defined]
+        n = len(self.joints)
+        if len(data) != n:
+            self.refused.error(
+                "%s refused: %d values for %d joints (%s); the last command stays",
+                self.commands.topic, len(data), n, ", ".join(self.joints),
+            )
+            return
+        value = np.array(data, dtype=float)  # a new array per command: readers may keep it
+        if not np.isfinite(value).all():
+            self.refused.warning(
+                "%s refused: a value is not finite (%s); the last command stays",
+                self.commands.topic, value.tolist(),
+            )
+            return
+        self.value = value
+
+
+class JointGroupPositionController(ForwardCommandController):
+    """``position_controllers/JointGroupPositionController``: ``~/commands`` to
+    ``position_command``."""
+
+    ros2_control_type = "position_controllers/JointGroupPositionController"
+    fixed_interface = "position"
+
+
+class JointGroupVelocityController(ForwardCommandController):
+    """``velocity_controllers/JointGroupVelocityController``: ``~/commands`` to
+    ``velocity_command``."""
+
+    ros2_control_type = "velocity_controllers/JointGroupVelocityController"
+    fixed_interface = "velocity"
+
+
+class JointGroupEffortController(ForwardCommandController):
+    """``effort_controllers/JointGroupEffortController``: ``~/commands`` to
+    ``effort_command``; zero effort on every joint when it stops (as ros2_controllers'
+    does at deactivation), so that no torque stays applied."""
+
+    ros2_control_type = "effort_controllers/JointGroupEffortController"
+    fixed_interface = "effort"
+
+    def stop(self) -> None:
+        self.command.write(np.zeros(len(self.joints)))

@@ -1,0 +1,160 @@
+"""joint_state_broadcaster: the joints' state interfaces as ``/joint_states``.
+
+What ros2_controllers' ``joint_state_broadcaster/JointStateBroadcaster`` publishes, from
+rtcf ports instead of ros2_control's state interfaces: one float64 array per interface,
+one value per joint in the order of ``joints`` (docs/controllers.md).
+"""
+
+from __future__ import annotations
+
+import array
+import math
+from typing import Any
+
+import numpy as np
+
+import rtcf
+
+from ._message_types import message_class
+from ._params import ControllerParameters
+from ._throttle import Throttled
+
+FIELDS = ("position", "velocity", "effort")  # JointState's, in its order
+
+
+class JointStateBroadcaster(rtcf.Component):
+    """``sensor_msgs/JointState`` on ``joint_states`` and ``control_msgs/DynamicJointState``
+    on ``dynamic_joint_states`` (relative names: ``/joint_states`` in the root namespace;
+    ``~/joint_states`` with ``use_local_topics``), stamped with the iteration's time and
+    ``frame_id``, every time it runs (its launcher's ``rate``).
+
+    Inputs: one float64 array per state interface, named by it. With both ``joints``
+    and ``interfaces`` set, those interfaces; otherwise ``position``, ``velocity`` and
+    ``effort`` (or the names ``map_interface_to_joint_state.<field>`` gives them).
+    ``joints`` names the arrays' entries; without it the joints are ``joint1``,
+    ``joint2``, ... as many as the first array that arrives has. A field whose
+    interface has no port, or no value yet, is NaN (as ros2_controllers'). An array of
+    the wrong length is logged (rate-limited) and its last good values stay.
+    ``extra_joints`` are appended with 0.0 everywhere.
+    """
+
+    ros2_control_type = "joint_state_broadcaster/JointStateBroadcaster"
+
+    def configure(self) -> None:
+        p = ControllerParameters(self)
+        joints = p.names("joints", [])
+        interfaces = p.names("interfaces", [])
+        self.extra_joints = p.names("extra_joints", [])
+        self.frame_id = p.text("frame_id", "base_link")
+        local = p.flag("use_local_topics", False)
+        dynamic = p.flag("publish_dynamic_joint_states", True)
+        p.flag("use_urdf_to_filter", True)  # no URDF in rtcf: `joints` orders them
+        mapped = {f: p.text(f"map_interface_to_joint_state.{f}", f) for f in FIELDS}
+        if not self.frame_id:
+            self.log.nonrt.warning("frame_id is empty: the messages carry none")
+        # a field named in `interfaces` is read from that interface itself (ros2's rule)
+        source = {f: f if f in interfaces else mapped[f] for f in FIELDS}
+        if joints and interfaces:
+            names = interfaces
+        else:
+            names = list(dict.fromkeys(source.values()))
+        # what dynamic_joint_states calls each: a mapped interface by its field's name
+        shown = {source[f]: f for f in FIELDS}
+        self.interfaces = [shown.get(name, name) for name in names]
+        self.ports = [self.add_input(name, np.ndarray) for name in names]
+        # which port's values each JointState field carries (-1: none, NaN)
+        self.field_port = [names.index(source[f]) if source[f] in names else -1 for f in FIELDS]
+        prefix = "~/" if local else ""
+        self.message = message_class(self, "sensor_msgs.msg", "JointState")
+        self.joint_states = self.add_output(prefix + "joint_states", self.message)
+        self.dynamic_message: Any = None
+        if dynamic:
+            try:
+                interface_value = message_class(self, "control_msgs.msg", "InterfaceValue")
+                self.dynamic_message = message_class(
+                    self, "control_msgs.msg", "DynamicJointState",
+                    interface_values=[interface_value()],
+                )
+            except rtcf.ConfigurationError as exc:
+                if p.has("publish_dynamic_joint_states"):
+                    raise
+                self.log.nonrt.warning("no dynamic_joint_states: %s", exc)
+            else:
+                self.interface_value = interface_value
+                self.dynamic_joint_states = self.add_output(
+                    prefix + "dynamic_joint_states", self.dynamic_message
+                )
+        self.bad_length = Throttled(self)
+        self.names: list[str] = []
+        self.n = 0
+        if joints:
+            self._name_joints(joints)
+
+    def _name_joints(self, joints: list[str]) -> None:
+        """Everything sized by the joints, made once: the value of each interface per
+        joint (the extra joints' zeros at the end), the names, the dynamic layout."""
+        n, extra = len(joints), len(self.extra_joints)
+        self.n = n
+        self.names = [*joints, *self.extra_joints]
+        self.values = [np.full(n + extra, math.nan) for _ in self.ports]
+        for values in self.values:
+            values[n:] = 0.0
+        nan = np.full(n + extra, math.nan)
+        nan[n:] = 0.0
+        self.fields = [self.values[k] if k >= 0 else nan for k in self.field_port]
+        # per joint, the interfaces' values side by side (the extra joints: the fields)
+        self.matrix = np.empty((n, len(self.ports)))
+        self.interface_names = [self.interfaces] * n + [list(FIELDS)] * extra
+
+    def update(self) -> None:
+        for k, port in enumerate(self.ports):
+            values = port.read()
+            if values is None:
+                continue
+            if not self.n:
+                self._name_joints([f"joint{j + 1}" for j in range(len(values))])
+                self.log.info("joints not given: naming them %s", self.names)
+            if len(values) != self.n:
+                self.bad_length.error(
+                    "%s has %d values for %d joints (%s): ignored, the last ones stay",
+                    port.topic, len(values), self.n, ", ".join(self.names[: self.n]),
+                )
+                continue
+            self.values[k][: self.n] = values
+        if not self.n:
+            return  # no joint named, none measured yet: nothing to say
+        msg = self.message()
+        header = msg.header
+        header.frame_id = self.frame_id
+        self.stamp_to(header.stamp)
+        msg.name = self.names
+        position, velocity, effort = self.fields
+        msg.position = array.array("d", position.tobytes())
+        msg.velocity = array.array("d", velocity.tobytes())
+        msg.effort = array.array("d", effort.tobytes())
+        self.joint_states.write(msg)
+        if self.dynamic_message is not None:
+            self._write_dynamic()
+
+    def _write_dynamic(self) -> None:
+        msg = self.dynamic_message()
+        header = msg.header
+        header.frame_id = self.frame_id
+        self.stamp_to(header.stamp)
+        msg.joint_names = self.names
+        matrix = self.matrix
+        n = self.n
+        for k, values in enumerate(self.values):
+            matrix[:n, k] = values[:n]
+        interface_value = self.interface_value
+        joint_values = []
+        for j, names in enumerate(self.interface_names):
+            value = interface_value()
+            value.interface_names = names
+            value.values = array.array("d", (matrix[j] if j < n else _ZEROS).tobytes())
+            joint_values.append(value)
+        msg.interface_values = joint_values
+        self.dynamic_joint_states.write(msg)
+
+
+_ZEROS = np.zeros(len(FIELDS))  # an extra joint's position, velocity and effort

@@ -1,0 +1,254 @@
+"""pid_controller: one PID per degree of freedom, referenced through ``~/reference``.
+
+ros2_controllers' ``pid_controller/PidController`` (Jazzy): ``dof_names``, the state
+interfaces it regulates (``reference_and_state_interfaces``: a value, and optionally its
+derivative), the command interface it writes (``command_interface``), and control_toolbox's
+PID per dof with the gains ``gains.<dof>.*``. Here the interfaces are ports of float64
+arrays, one value per dof (docs/controllers.md).
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+import rtcf
+
+from ._message_types import message_class
+from ._params import ControllerParameters
+from ._pid import Gains, Pid, shortest_angular_distance
+from ._throttle import Throttled
+
+_isfinite = math.isfinite
+_isnan = math.isnan
+_NAN = math.nan
+
+
+class PidController(rtcf.Component):
+    """Regulates each dof's state (the input named by the first of
+    ``reference_and_state_interfaces``, e.g. ``position``; the second, e.g. ``velocity``,
+    is its derivative) to the reference and writes ``<command_interface>_command``.
+
+    The reference comes from ``~/reference`` (``control_msgs/MultiDOFCommand``: values
+    by ``dof_names`` or, without names, in their order; NaN leaves a dof's reference as
+    it is) and stays until the next one; with ``set_current_state_as_first_setpoint``
+    each dof starts referenced where it is when first measured after the controller
+    starts. A dof is commanded while its reference and state are finite; its command
+    is the PID's output plus, with ``enable_feedforward``, ``feedforward_gain`` times
+    the reference's derivative (two interfaces) or the reference (one).
+    ``~/controller_state`` (``control_msgs/MultiDOFStateStamped``) publishes, every
+    time it runs, each dof's reference, feedback, error, time step and output.
+    With ``use_external_measured_states``, the state comes from ``~/measured_state``
+    (``MultiDOFCommand``) instead of the ports.
+    """
+
+    ros2_control_type = "pid_controller/PidController"
+
+    def configure(self) -> None:
+        p = ControllerParameters(self)
+        self.dofs = p.names("dof_names", [], non_empty=True)
+        n = len(self.dofs)
+        state_dofs = p.names("reference_and_state_dof_names", []) or self.dofs
+        if len(state_dofs) != n:
+            raise p.error("reference_and_state_dof_names", state_dofs,
+                          f"{n} names, one per entry of dof_names, or none")
+        self.state_dofs = state_dofs
+        command_interface = p.text("command_interface", "")
+        if not command_interface:
+            raise p.error("command_interface", command_interface,
+                          "the command interface to write (effort, velocity, ...)")
+        interfaces = p.names("reference_and_state_interfaces", [], non_empty=True)
+        if len(interfaces) > 2:
+            raise p.error("reference_and_state_interfaces", interfaces,
+                          "one interface, or two: a value and its derivative")
+        self.two = len(interfaces) == 2
+        self.first_setpoint = p.flag("set_current_state_as_first_setpoint", True)
+        external = p.flag("use_external_measured_states", False)
+        self.feedforward = p.flag("enable_feedforward", False)
+        self.pids = [Pid(Gains.read(p, dof)) for dof in self.dofs]
+        for dof in self.dofs:
+            if p.flag(f"gains.{dof}.activate_state_publisher", False):
+                self.log.nonrt.warning(
+                    "gains.%s.activate_state_publisher: no per-dof pid_state here; "
+                    "~/controller_state has every dof", dof)
+        command_msg = message_class(self, "control_msgs.msg", "MultiDOFCommand")
+        self.single = message_class(self, "control_msgs.msg", "SingleDOFState")
+        self.state_msg = message_class(
+            self, "control_msgs.msg", "MultiDOFStateStamped", dof_states=[self.single()]
+        )
+        self.reference_port = self.add_input("~/reference", command_msg)
+        self.measured_port = (
+            self.add_input("~/measured_state", command_msg) if external else None
+        )
+        self.state_ports = [] if external else [
+            self.add_input(name, np.ndarray) for name in interfaces
+        ]
+        self.command_port = self.add_output(f"{command_interface}_command", np.ndarray)
+        self.controller_state = self.add_output("~/controller_state", self.state_msg)
+        self.index = {name: k for k, name in enumerate(state_dofs)}
+        self.refused = Throttled(self)  # each kind of problem rate-limited on its own
+        self.unknown = Throttled(self)
+        self.unnamed = Throttled(self)
+        self.command = [_NAN] * n  # what the command interfaces hold (NaN: never written)
+        self._clear()
+
+    def _clear(self) -> None:
+        n = len(self.dofs)
+        self.reference = [_NAN] * n
+        self.reference_dot = [_NAN] * n
+        self.measured = [_NAN] * n
+        self.measured_dot = [_NAN] * n
+        self.seeding = self.first_setpoint
+
+    def start(self) -> None:
+        """ros2_controllers' activation: references cleared (and what came while
+        inactive dropped), the PIDs reset (``save_i_term`` keeps the integral)."""
+        self._clear()
+        self.reference_port.read()
+        for pid in self.pids:
+            pid.reset()
+
+    def update(self) -> None:
+        self._measure()
+        if self.reference_port.has_new_data:
+            self._take_reference(self.reference_port.read())
+        if self.seeding:
+            self._seed()
+        self._control(self.period)
+        self._publish_state(self.period)
+
+    def _measure(self) -> None:
+        port = self.measured_port
+        if port is not None:
+            if port.has_new_data:
+                self._take_measured(port.read())
+            return
+        n = len(self.dofs)
+        for k, port in enumerate(self.state_ports):
+            values = port.read()
+            if values is None:
+                continue
+            if len(values) != n:
+                self.refused.error(
+                    "%s has %d values for %d dofs (%s): ignored, the last ones stay",
+                    port.topic, len(values), n, ", ".join(self.state_dofs))
+                continue
+            if k:
+                self.measured_dot = values.tolist()
+            else:
+                self.measured = values.tolist()
+
+    def _seed(self) -> None:
+        """The first setpoint: each dof's reference where it is, once all are measured."""
+        measured, measured_dot = self.measured, self.measured_dot
+        if not all(map(_isfinite, measured)):
+            return
+        for i, value in enumerate(measured):
+            if _isnan(self.reference[i]):
+                self.reference[i] = value
+                if self.two:
+                    self.reference_dot[i] = measured_dot[i]
+        self.seeding = False
+
+    def _control(self, dt: float) -> None:
+        reference, reference_dot = self.reference, self.reference_dot
+        measured, measured_dot = self.measured, self.measured_dot
+        command, two, feedforward = self.command, self.two, self.feedforward
+        written = False
+        for i, pid in enumerate(self.pids):
+            ref, state = reference[i], measured[i]
+            if not (_isfinite(ref) and _isfinite(state)):
+                continue  # the command interface keeps what it holds
+            gains = pid.gains
+            out = 0.0
+            ref_dot = reference_dot[i]
+            if feedforward:
+                if not two:
+                    out = ref * gains.feedforward_gain
+                elif _isfinite(ref_dot):
+                    out = ref_dot * gains.feedforward_gain
+            if gains.angle_wraparound:
+                error = shortest_angular_distance(state, ref)
+            else:
+                error = ref - state
+            if two and _isfinite(ref_dot) and _isfinite(measured_dot[i]):
+                out += pid.compute_with_rate(error, ref_dot - measured_dot[i], dt)
+            else:
+                out += pid.compute(error, dt)
+            command[i] = out
+            written = True
+        if written:  # a new array each time: readers may keep the last one
+            self.command_port.write(np.array(command))
+
+    def _publish_state(self, dt: float) -> None:
+        msg = self.state_msg()
+        self.stamp_to(msg.header.stamp)
+        single, two = self.single, self.two
+        states = []
+        for i, name in enumerate(self.state_dofs):
+            ref, state = self.reference[i], self.measured[i]
+            s = single()
+            s.name = name
+            s.reference = ref
+            s.feedback = state
+            if self.pids[i].gains.angle_wraparound:
+                s.error = shortest_angular_distance(state, ref)
+            else:
+                s.error = ref - state
+            if two:
+                s.feedback_dot = self.measured_dot[i]
+                s.error_dot = self.reference_dot[i] - self.measured_dot[i]
+            s.time_step = dt
+            s.output = self.command[i]
+            states.append(s)
+        msg.dof_states = states
+        self.controller_state.write(msg)
+
+    def _take_reference(self, msg: Any) -> None:
+        names, values, dots = msg.dof_names, msg.values, msg.values_dot
+        n = len(self.dofs)
+        if len(values) != n or (names and len(names) != n) or (dots and len(dots) != n):
+            self.refused.error(
+                "%s refused: %d names, %d values and %d values_dot for %d dofs (%s)",
+                self.reference_port.topic, len(names), len(values), len(dots), n,
+                ", ".join(self.state_dofs))
+            return
+        if names:
+            order = [self.index.get(name, -1) for name in names]
+            if -1 in order:
+                self.unknown.error(
+                    "%s refused: dof %r is not one of %s", self.reference_port.topic,
+                    names[order.index(-1)], ", ".join(self.state_dofs))
+                return
+        else:
+            order = list(range(n))
+            self.unnamed.warning(
+                "%s has no dof_names: its values are taken in the order of %s",
+                self.reference_port.topic, ", ".join(self.state_dofs))
+        two = self.two and len(dots) == n
+        for k, i in enumerate(order):
+            value = values[k]
+            if not _isnan(value):
+                self.reference[i] = value
+                if two and not _isnan(dots[k]):
+                    self.reference_dot[i] = dots[k]
+
+    def _take_measured(self, msg: Any) -> None:
+        names, values, dots = msg.dof_names, msg.values, msg.values_dot
+        n = len(self.dofs)
+        problem = None
+        if len(names) != n or len(values) != n:
+            problem = f"{len(names)} names and {len(values)} values"
+        elif dots and not self.two:
+            problem = "values_dot, which needs two reference_and_state_interfaces"
+        elif dots and len(dots) != n:
+            problem = f"{len(dots)} values_dot"
+        if problem is not None:
+            self.refused.error(
+                "%s refused: %s for %d dofs (%s)", self.measured_port.topic, problem, n,  # type: ignore[union-attr]
+                ", ".join(self.state_dofs))
+            return
+        self.measured = list(values)
+        self.measured_dot = list(dots) if dots else [_NAN] * n

@@ -1,0 +1,53 @@
+"""Hardware for the controllers' tests: joints that go where they are told, and a mass
+pushed by an effort. Each writes ros2_control's state interfaces as float64 arrays, one
+value per joint, and runs first (``is_first``), as a driver does."""
+
+from __future__ import annotations
+
+import numpy as np
+
+import rtcf
+
+
+class PositionJoints(rtcf.Component):
+    """Joints that reach ``position_command`` in one period: ``position`` is the last
+    command (``~initial_positions`` before one), ``velocity`` how far that moved them
+    in the period, ``effort`` ``~effort`` (constant)."""
+
+    def configure(self) -> None:
+        self.q = np.array(self.params.get("~initial_positions", [0.0, 0.0, 0.0]), dtype=float)
+        self.held = float(self.params.get("~effort", 0.0))
+        self.position_command = self.add_input("position_command", np.ndarray)
+        self.position = self.add_output("position", np.ndarray)
+        self.velocity = self.add_output("velocity", np.ndarray)
+        self.effort = self.add_output("effort", np.ndarray)
+
+    def update(self) -> None:
+        command = self.position_command.read()
+        q = self.q if command is None else command
+        self.velocity.write((q - self.q) / self.period)
+        self.q = q
+        self.position.write(q)
+        self.effort.write(np.full(len(q), self.held))
+
+
+class Mass(rtcf.Component):
+    """Point masses of ``~mass`` kg on a line, ``effort_command`` the force on each
+    (none yet: 0), integrated by semi-implicit Euler once per period."""
+
+    def configure(self) -> None:
+        n = int(self.params.get("~joints", 1))
+        self.mass = float(self.params.get("~mass", 1.0))
+        self.x = np.zeros(n)
+        self.v = np.zeros(n)
+        self.effort_command = self.add_input("effort_command", np.ndarray)
+        self.position = self.add_output("position", np.ndarray)
+        self.velocity = self.add_output("velocity", np.ndarray)
+
+    def update(self) -> None:
+        force = self.effort_command.read()
+        if force is not None:
+            self.v = self.v + force / self.mass * self.period
+            self.x = self.x + self.v * self.period
+        self.position.write(self.x)
+        self.velocity.write(self.v)
