@@ -19,31 +19,29 @@ from rtcf import GoalStatus
 from rtcf.testing import Cancel, Goal, Trace, run_components
 from rtcf_controllers.joint_trajectory_controller import JointTrajectoryController
 
+from ._plants import PositionJoints
+
 HZ = 100.0
 JOINTS = ["a", "b"]
 TOPIC = "/jtc/joint_trajectory"
 ACTION = "/jtc/follow_joint_trajectory"
 
 
-class Kinematic(rtcf.Component):
-    """An arm whose joints go where they were commanded one iteration before (first in
-    the loop, as hardware is); from ``~stuck_s`` on they stay where they are."""
+class Kinematic(PositionJoints):
+    """Joints that go where they were commanded one iteration before (first in the
+    loop, as hardware is), until ``~stuck_s``: from then on they stay where they are."""
 
     def configure(self) -> None:
-        self.command = self.add_input("position_command", np.ndarray)
-        self.position = self.add_output("position", np.ndarray)
-        self.velocity = self.add_output("velocity", np.ndarray)
-        self.q = np.array(self.params.get("~initial", [0.0, 0.0]), dtype=float)
+        super().configure()
         self.stuck_s = float(self.params.get("~stuck_s", 1e9))
+        self.still = np.zeros_like(self.q)
 
     def update(self) -> None:
-        command = self.command.read()
-        velocity = np.zeros_like(self.q)
-        if command is not None and self.time < self.stuck_s:
-            velocity = (command - self.q) / self.period
-            self.q = command.copy()
-        self.position.write(self.q.copy())
-        self.velocity.write(velocity)
+        if self.time < self.stuck_s:
+            super().update()
+        else:
+            self.position.write(self.q)
+            self.velocity.write(self.still)
 
 
 def _duration(seconds: float) -> Duration:
@@ -67,7 +65,8 @@ def _run(iterations: int, params: dict[str, Any] | None = None, *, plant: dict |
          inputs: dict | None = None, actions: dict | None = None) -> Trace:
     jtc = {"joints": JOINTS, "command_interfaces": ["position"],
            "state_interfaces": ["position", "velocity"], **(params or {})}
-    specs = [rtcf.ComponentSpec("arm", Kinematic, params=plant or {}, is_first=True),
+    plant = {"initial_positions": [0.0, 0.0], **(plant or {})}
+    specs = [rtcf.ComponentSpec("arm", Kinematic, params=plant, is_first=True),
              rtcf.ComponentSpec("jtc", JointTrajectoryController, params=jtc)]
     return run_components(specs, iterations, frequency=HZ, inputs=inputs, actions=actions)
 
@@ -186,8 +185,8 @@ def test_a_goal_naming_an_unknown_joint_is_rejected_and_nothing_moves() -> None:
 @pytest.mark.parametrize("partial", [False, True])
 def test_a_partial_goal_follows_allow_partial_joints_goal(partial: bool) -> None:
     goal = _goal(_trajectory(["b"], (0.3, [1.0])))
-    trace = _run(40, {"allow_partial_joints_goal": partial}, plant={"initial": [0.5, 0.0]},
-                 actions={ACTION: {0: goal}})
+    trace = _run(40, {"allow_partial_joints_goal": partial},
+                 plant={"initial_positions": [0.5, 0.0]}, actions={ACTION: {0: goal}})
     assert _goals(trace)[goal.id].accepted is partial
     assert _positions(trace, 39) == pytest.approx([0.5, 1.0] if partial else [0.5, 0.0])
 
