@@ -47,7 +47,8 @@ def mapping(data: dict[str, Any], whitelist: str) -> str:
     subscribed = [
         c for c in data["connections"] if c["ros"] and c["subscribers"] and not c["publishers"]
     ]
-    if not published and not subscribed:
+    served = [a for a in data.get("actions", []) if a["ros"]]
+    if not published and not subscribed and not served:
         why = (
             "ros_mapping_whitelist is empty" if not whitelist
             else f"no topic matches ros_mapping_whitelist {whitelist!r} and not the blacklist"
@@ -62,6 +63,8 @@ def mapping(data: dict[str, Any], whitelist: str) -> str:
         parts.append("publishes " + topics(published))
     if subscribed:
         parts.append("subscribes " + topics(subscribed))
+    if served:
+        parts.append("serves actions " + ", ".join(f"{a['name']} ({a['type']})" for a in served))
     return "; ".join(parts)
 
 

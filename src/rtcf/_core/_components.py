@@ -15,6 +15,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
+from ._actions import ActionServer
 from ._component import Component, _attach, overrides
 from ._errors import ComponentError, ConfigurationError, Location, RtcfError
 from ._faults import FailurePolicy
@@ -228,6 +229,7 @@ class Components:
         """Per topic, its publishers and subscribers and whether it reaches the
         middleware (``maps``), sorted by topic."""
         connections: dict[str, dict[str, Any]] = {}
+        action = self._action_ports()
         for full, entry in self.entries.items():
             comp = entry.component
             roles = ((comp._rtcf_outputs, "publishers"), (comp._rtcf_inputs, "subscribers"))
@@ -238,10 +240,23 @@ class Components:
                         "type": type_name(port.type),
                         "publishers": [],
                         "subscribers": [],
-                        "ros": maps(port.topic),
+                        "ros": maps(port.topic) and id(port) not in action,
                     })
                     c[role].append(full)
         return [connections[t] for t in sorted(connections)]
+
+    def actions(self, maps: Callable[[str], bool]) -> list[dict[str, Any]]:
+        """The actions served, by name: type, component, whether mapped (``maps``)."""
+        return sorted(
+            ({"name": a.name, "type": type_name(a.type), "component": full, "ros": maps(a.name)}
+             for full, e in self.entries.items() for a in e.component._rtcf_actions.values()),
+            key=lambda a: a["name"],
+        )
+
+    def _action_ports(self) -> set[int]:
+        """The ids of the ports actions cross on (mapped as actions, not as topics)."""
+        return {id(p) for e in self.entries.values() for a in e.component._rtcf_actions.values()
+                for p in (a._requests, a._events)}
 
     def set_parameter(self, component: str, name: str, value: Any) -> Any:
         """Validate and set a tunable parameter; returns the value as set."""
@@ -321,14 +336,22 @@ class Components:
         feeds (once the ports are connected: after the schedule compiled)."""
         maps = self.settings.maps_to_ros
         comps = [e.component for e in self.entries.values()]
-        outputs = [p for c in comps for p in c._rtcf_outputs.values() if maps(p.topic)]
+        action = self._action_ports()  # mapped as actions, by their name
+        outputs = [p for c in comps for p in c._rtcf_outputs.values()
+                   if maps(p.topic) and id(p) not in action]
         inputs = [
             p
             for c in comps
             for p in c._rtcf_inputs.values()
-            if p.producer is None and maps(p.topic)
+            if p.producer is None and maps(p.topic) and id(p) not in action
         ]
         return outputs, inputs
+
+    def mapped_actions(self) -> list[ActionServer]:
+        """The action servers whose action's name maps to the middleware."""
+        maps = self.settings.maps_to_ros
+        return [a for e in self.entries.values() for a in e.component._rtcf_actions.values()
+                if maps(a.name)]
 
 
 def _port_info(port: Any) -> dict[str, Any]:

@@ -30,8 +30,9 @@ def is_ros1_message(cls: type) -> bool:
 def type_name(cls: type) -> str:
     """'std_msgs/msg/Float64' (ROS 2) or 'std_msgs/Float64' (ROS 1), else module.qualname."""
     if is_ros2_message(cls):
-        package = cls.__module__.split(".")[0]
-        return f"{package}/msg/{cls.__name__}"
+        package, _, rest = cls.__module__.partition(".")
+        kind = "action" if rest.startswith("action") else "msg"  # an action, or its parts
+        return f"{package}/{kind}/{cls.__name__}"
     if is_ros1_message(cls):
         return str(cls._type)  # type: ignore[attr-defined]
     return f"{cls.__module__}.{cls.__qualname__}"
@@ -53,17 +54,20 @@ def std_type_name(kind: str, *, ros2: bool = True) -> str:
 
 
 def message_class(name: str) -> type:
-    """The generated class of 'pkg/msg/Type' (ROS 2) or 'pkg/Type' (ROS 1).
+    """The generated class of 'pkg/msg/Type' (ROS 2; an action's 'pkg/action/Type') or
+    'pkg/Type' (ROS 1).
 
     Both generators put the class ``Type`` into the module ``pkg.msg``. Raises
     :class:`LookupError` saying which module and class were missing and why.
     """
     parts = name.split("/")
-    if len(parts) == 3 and parts[1] == "msg":
+    folder = "msg"
+    if len(parts) == 3 and parts[1] in ("msg", "action"):
+        folder = parts[1]
         parts = [parts[0], parts[2]]
     if len(parts) != 2 or not all(parts):
         raise LookupError(f"message type {name!r} is not pkg/msg/Type (ROS 2) or pkg/Type (ROS 1)")
-    module, cls_name = f"{parts[0]}.msg", parts[1]
+    module, cls_name = f"{parts[0]}.{folder}", parts[1]
     try:
         cls = getattr(importlib.import_module(module), cls_name)
     except (ImportError, AttributeError) as exc:

@@ -23,6 +23,7 @@ from __future__ import annotations
 from collections.abc import Callable, Iterable, Sequence
 from typing import Any
 
+from ._actions import ActionServer
 from ._clock import Clock, MonotonicClock
 from ._component import Component
 from ._components import Components, ComponentSpec
@@ -164,6 +165,7 @@ class Runner:
             "mode": self.settings.mode,
             "components": [components.describe(n) for n in components.entries],
             "connections": connections,
+            "actions": components.actions(self.settings.maps_to_ros),
             "order": order,
             "problem": problem,
         }
@@ -224,6 +226,10 @@ class Runner:
         """
         self._schedule.compiled()  # the ports are connected
         return self._components.mapped_ports()
+
+    def mapped_actions(self) -> list[ActionServer]:
+        """Action servers whose action's name maps to the middleware."""
+        return self._components.mapped_actions()
 
     # -- lifecycle transitions (Transitions) ----------------------------------------
     def lifecycle_state(self, name: str) -> str:

@@ -62,7 +62,7 @@ import time
 from collections.abc import Callable, Mapping
 from typing import TYPE_CHECKING, Any
 
-from .._core._errors import RtcfError
+from .._core._errors import ConfigurationError, RtcfError
 from .._core._log import LogRecord
 from .._core._params import ParameterStore
 from .._core._rings import Mailbox, Ring
@@ -367,6 +367,13 @@ class Ros1Bridge:
         self, ports: list[MappedPort], channels: Mapping[str, Ring | Mailbox | MailboxFanOut]
     ) -> None:
         rospy = self._rospy
+        actions = sorted(p.topic.rpartition("/_action/")[0] for p in ports if p.kind == "action")
+        if actions:
+            raise ConfigurationError(
+                f"action {actions[0]} is mapped to the middleware (ros_mapping_whitelist), "
+                "but actions are served on ROS 2 only (--middleware ros2); leave it out of "
+                "the whitelist on ROS 1"
+            )
         peers: list[tuple[Any, str, str]] = []
         with self._lock:
             self._open = True

@@ -46,6 +46,7 @@ from .._runtime._doorbell import ClockFeed, Doorbell
 from .._runtime._health import diagnostic_array, health
 from .._runtime._middleware import import_client, mapped_message_class
 from .._runtime._port_channels import MailboxFanOut, MappedPort, read_record
+from ._actions import ActionBridge
 from ._face import ComponentFace, read_only, ros_logger_name, ros_value
 from ._inputs import DirectInputs
 
@@ -222,6 +223,8 @@ class Ros2Bridge:
         self._direct: DirectInputs | None = None  # timed: mapped inputs without the executor
         self.publisher_scheduling = "SCHED_OTHER"  # what it got
         self.doorbell = Doorbell.create()
+        self._runner: WorkerRunner | None = None
+        self._actions = ActionBridge(self.node, self.executor, self._is_active)
         # two threads: one spins the executor (subscriptions, services, parameters),
         # one sleeps on the doorbell and publishes what the worker's outputs pushed
         self._thread = threading.Thread(target=self._spin, name="rtcf-ros2", daemon=True)
@@ -247,6 +250,7 @@ class Ros2Bridge:
                 Trigger, "~/introspect", on_introspect
             )
         runner.transition_listeners.append(self._transitioned)
+        self._runner = runner
 
         self._qos = QoSProfile(
             depth=settings.ros_qos_depth,
@@ -293,9 +297,12 @@ class Ros2Bridge:
     def open(
         self, ports: list[MappedPort], channels: Mapping[str, Ring | Mailbox | MailboxFanOut]
     ) -> None:
+        self._actions.open(ports, channels)
         with self._lock:
             self._open = True
             for port in ports:
+                if port.kind == "action":  # served by the ActionBridge
+                    continue
                 cls = message_class(port)
                 channel = channels[port.topic]
                 # the timed bridge hands ROS messages over as CDR bytes where it can
@@ -425,8 +432,13 @@ class Ros2Bridge:
             face.close()
             face.node.destroy_node()
 
+    def _is_active(self, component: str) -> bool:
+        runner = self._runner
+        return runner is None or runner.lifecycle_state(component) == "active"
+
     def close_run(self) -> None:
-        """Publish what is left, then let go of the run's channels."""
+        """Publish what is left, then let go of the run's channels (open goals end)."""
+        self._actions.close_run()
         with self._lock:
             self._open = False
             self._drain()
@@ -461,6 +473,7 @@ class Ros2Bridge:
             self.doorbell.wait(SPIN_TIMEOUT_S)
             with self._lock:
                 self._drain()
+            self._actions.drain()
 
     def _drain(self) -> None:
         for ring, pub, convert in self._outputs:
@@ -479,6 +492,7 @@ class Ros2Bridge:
         if self._direct is not None:
             self._direct.close()
         self.doorbell.close()
+        self._actions.shutdown()
         self.executor.shutdown()
         for face in self._faces.values():
             face.close()

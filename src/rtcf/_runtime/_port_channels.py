@@ -13,14 +13,16 @@ channels of a run out in one segment; the worker maps it.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any
 
+from .._core._actions import ActionServer
 from .._core._errors import ConfigurationError
 from .._core._message_types import type_name
 from .._core._ports import InputPort, OutputPort, Port, Slot
 from .._core._rings import Mailbox, Ring
+from ._action_channels import EVENTS, REQUESTS, EventTap, RequestFeeder, message_codecs, ring_shape
 from ._codec import Codec, codec_for
 from ._doorbell import Doorbell
 
@@ -32,21 +34,36 @@ _LEN = 8  # a record starts with the payload length (int64)
 class MappedPort:
     """One topic that crosses to the middleware, as both processes see it."""
 
-    direction: str  # "output" (published) or "input" (subscribed)
+    # "output" (published), "input" (subscribed), or an action's rings: "action_requests"
+    # (the goals and cancels the bridge writes), "action_events" (what it serves)
+    direction: str
     topic: str
     type_name: str  # "std_msgs/msg/Float64" (ROS 2), "std_msgs/Float64" (ROS 1), "builtins.float"
     kind: str  # the codec: float, int, bool, str, float_array, ros2, ros1
     max_size: int
     offset: int = 0  # in the run's port segment
     nbytes: int = 0
+    component: str = ""  # an action's: the component that serves it
 
 
 def mapped_ports(
-    outputs: list[OutputPort[Any]], unfed_inputs: list[InputPort[Any]]
+    outputs: list[OutputPort[Any]],
+    unfed_inputs: list[InputPort[Any]],
+    actions: Sequence[ActionServer] = (),
 ) -> list[MappedPort]:
-    """The channels a run needs, one per mapped topic, laid out one after the other."""
+    """The channels a run needs, one per mapped topic and two per mapped action, laid
+    out one after the other."""
     out: list[MappedPort] = []
     offset = 0
+    for server in sorted(actions, key=lambda a: a.name):
+        message_codecs(server.name, server.type)  # a ROS 2 action, or say so now
+        for direction, topic in ((REQUESTS, server._requests.topic),
+                                 (EVENTS, server._events.topic)):
+            records, record_size = ring_shape(direction)
+            size = (Ring.nbytes(records, record_size) + 63) // 64 * 64
+            out.append(MappedPort(direction, topic, type_name(server.type), "action",
+                                  record_size, offset, size, server.component))
+            offset += size
     seen: set[str] = set()
     for direction, ports in (("output", outputs), ("input", unfed_inputs)):
         for port in sorted(ports, key=lambda p: p.topic):
@@ -85,6 +102,15 @@ class MailboxFanOut:
 
 def segment_size(ports: list[MappedPort]) -> int:
     return max(64, sum(p.nbytes for p in ports))
+
+
+def create_channel(view: memoryview, port: MappedPort) -> Ring | Mailbox:
+    """The supervisor's side: the channel of one mapped port, laid out in ``view``."""
+    if port.direction in (REQUESTS, EVENTS):
+        return Ring.create(view, ring_shape(port.direction)[0], port.max_size)
+    if port.direction == "output":
+        return Ring.create(view, OUTPUT_RING_RECORDS, _LEN + port.max_size)
+    return Mailbox.create(view, port.max_size)
 
 
 def _codec(port: Port[Any]) -> Codec:
@@ -190,13 +216,17 @@ class WorkerPorts:
         outputs: list[OutputPort[Any]],
         inputs: list[InputPort[Any]],
         *,
+        actions: Sequence[ActionServer] = (),
         doorbell: Doorbell | None = None,
     ) -> None:
         self.taps: dict[str, Tap] = {}
         self._pushed = [0]  # set by a tap that pushed a record since the last ring
         self._bell = doorbell.ring if doorbell is not None else None
-        self.feeders: list[Feeder] = []
+        self.feeders: list[Any] = []  # Feeder, and a ring's gate per mapped action
+        self.action_taps: dict[str, EventTap] = {}
+        self._rings: list[Ring] = []
         self._tapped: list[OutputPort[Any]] = []
+        by_topic_action = {p.topic: s for s in actions for p in (s._requests, s._events)}
         by_topic_in: dict[str, list[InputPort[Any]]] = {}
         for port in inputs:
             by_topic_in.setdefault(port.topic, []).append(port)
@@ -205,7 +235,9 @@ class WorkerPorts:
             by_topic_out.setdefault(writer.topic, []).append(writer)
         for mp in ports:
             view = buf[mp.offset : mp.offset + mp.nbytes]
-            if mp.direction == "output":
+            if mp.direction in (REQUESTS, EVENTS):
+                self._action(Ring.open(view), mp.direction, by_topic_action[mp.topic])
+            elif mp.direction == "output":
                 writers = by_topic_out[mp.topic]
                 tap = Tap(Ring.open(view), _codec(writers[0]), self._pushed)
                 self.taps[mp.topic] = tap
@@ -221,6 +253,18 @@ class WorkerPorts:
                 )
             view.release()
 
+    def _action(self, ring: Ring, direction: str, server: ActionServer) -> None:
+        codecs = message_codecs(server.name, server.type)
+        if direction == REQUESTS:  # the ring's gate: one compare while nothing waits
+            gate = ring.when_pending(RequestFeeder(ring, server._requests, codecs["Goal"]))
+            self.feeders.append(gate)
+        else:
+            tap = EventTap(ring, codecs, self._pushed)
+            self.action_taps[server.name] = tap
+            server._events._tap = tap
+            self._tapped.append(server._events)
+        self._rings.append(ring)
+
     def ring_if_pushed(self) -> None:
         """After an iteration (outside its measured time): wake the supervisor once if
         any output pushed a record; it drains every ring when it wakes."""
@@ -230,13 +274,17 @@ class WorkerPorts:
                 self._bell()
 
     def counts(self) -> dict[str, int]:
-        """Messages each output could not hand over because they were too large."""
-        return {topic: tap.oversize for topic, tap in self.taps.items() if tap.oversize}
+        """Messages each output (or action) could not hand over because they were too
+        large."""
+        counts = {topic: tap.oversize for topic, tap in self.taps.items() if tap.oversize}
+        counts.update((n, t.oversize) for n, t in self.action_taps.items() if t.oversize)
+        return counts
 
     def inputs(self) -> dict[str, dict[str, int]]:
         """Per mapped input: the messages the loop read, and those a newer one
         replaced before an iteration read them."""
-        return {f.topic: {"read": f.read, "superseded": f.superseded} for f in self.feeders}
+        return {f.topic: {"read": f.read, "superseded": f.superseded}
+                for f in self.feeders if isinstance(f, Feeder)}
 
     def release(self) -> None:
         for port in self._tapped:
@@ -244,7 +292,9 @@ class WorkerPorts:
         for tap in self.taps.values():
             tap.release()
         for feeder in self.feeders:
-            feeder.release()
+            feeder.release()  # a gate's first: it lets go of its ring's words
+        for ring in self._rings:
+            ring.close()
 
 
 def read_record(ring: Ring, slot: int) -> bytes:

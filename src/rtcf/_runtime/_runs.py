@@ -28,7 +28,7 @@ from .._core._timing import (
     ring_capacity,
     row_size,
 )
-from ._port_channels import OUTPUT_RING_RECORDS, MailboxFanOut, MappedPort, segment_size
+from ._port_channels import MailboxFanOut, MappedPort, create_channel, segment_size
 from ._recording import RecordedTopic, RecordingDrain, RecordSink
 from ._recording import segment_size as recording_segment_size
 from ._shm import Segment
@@ -285,9 +285,6 @@ class RunChannels:
         channels: dict[str, Ring | Mailbox] = {}
         for p in ports:
             view = seg.buf[p.offset : p.offset + p.nbytes]
-            if p.direction == "output":
-                channels[p.topic] = Ring.create(view, OUTPUT_RING_RECORDS, 8 + p.max_size)
-            else:
-                channels[p.topic] = Mailbox.create(view, p.max_size)
+            channels[p.topic] = create_channel(view, p)
             view.release()
         return seg, channels

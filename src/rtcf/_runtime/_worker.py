@@ -368,7 +368,7 @@ class Worker:
         """Compile the schedule and list the mapped ports and the recorded topics (a
         full-match regex, or None); the supervisor sizes their channels."""
         runner = self._runner()
-        ports = mapped_ports(*runner.mapped_ports()) if bridged else []
+        ports = mapped_ports(*runner.mapped_ports(), runner.mapped_actions()) if bridged else []
         recorded = []
         if record is not None:
             fed = runner.mapped_ports()[1] if bridged else []
@@ -397,7 +397,8 @@ class Worker:
         bridge = None
         if port_seg is not None and ports:
             bridge = WorkerPorts(
-                port_seg.buf, ports, *runner.mapped_ports(), doorbell=self.doorbell
+                port_seg.buf, ports, *runner.mapped_ports(), actions=runner.mapped_actions(),
+                doorbell=self.doorbell,
             )
         recording = None
         if rec_seg is not None and recorded:

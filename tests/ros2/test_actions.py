@@ -1,0 +1,115 @@
+"""An action served from the loop, from outside: rclpy's ActionClient against rtcf launch.
+
+One ``rtcf launch --middleware ros2`` process (fixtures/fibonacci.launch.xml) serves
+test_msgs/action/Fibonacci from the FibonacciServer component at /fib/fibonacci (the
+whitelist maps it) and, unmapped, at /hidden/fibonacci. The clients do what MoveIt does
+with an action: send a goal, follow its feedback, wait for its result, cancel it, send a
+newer one.
+"""
+
+from pathlib import Path
+
+import pytest
+import rclpy
+from action_msgs.msg import GoalStatus
+from action_msgs.srv import CancelGoal
+from lifecycle_msgs.msg import Transition
+from lifecycle_msgs.srv import ChangeState
+from rclpy.action import ActionClient, get_action_names_and_types
+from test_msgs.action import Fibonacci  # fails loudly where it is missing
+
+from .test_topics import launched
+
+pytestmark = pytest.mark.integration
+
+LAUNCH = Path(__file__).parent / "fixtures" / "fibonacci.launch.xml"
+NAME = "/fib/fibonacci"
+
+
+@pytest.fixture(scope="module")
+def served():
+    with launched(LAUNCH) as proc:
+        yield proc
+
+
+@pytest.fixture
+def client(served, ros_node):
+    client = ActionClient(ros_node, Fibonacci, NAME)
+    assert client.wait_for_server(timeout_sec=30)
+    executor = rclpy.executors.SingleThreadedExecutor(context=ros_node.context)
+    executor.add_node(ros_node)
+
+    def wait(future, timeout=20.0):
+        executor.spin_until_future_complete(future, timeout_sec=timeout)
+        assert future.done(), "no answer in time"
+        return future.result()
+
+    client.wait = wait
+    yield client
+    executor.remove_node(ros_node)
+    client.destroy()
+
+
+def test_the_mapped_action_is_said_and_the_unmapped_one_has_no_server(served, client, ros_node):
+    assert f"serves actions {NAME} (test_msgs/action/Fibonacci)" in served.said
+    # the client found the server (discovery is done): the graph has no other
+    actions = dict(get_action_names_and_types(ros_node))
+    assert actions[NAME] == ["test_msgs/action/Fibonacci"]
+    assert "/hidden/fibonacci" not in actions
+
+
+def test_a_goal_is_accepted_fed_back_and_succeeds(client):
+    feedback = []
+    handle = client.wait(client.send_goal_async(
+        Fibonacci.Goal(order=20), feedback_callback=lambda m: feedback.append(m.feedback)
+    ))
+    assert handle.accepted
+    answer = client.wait(handle.get_result_async())
+    assert answer.status == GoalStatus.STATUS_SUCCEEDED
+    sequence = list(answer.result.sequence)
+    assert sequence == [0, 1, 1, 2, 3, 5, 8, 13, 21, 34, 55, 89, 144, 233, 377, 610, 987,
+                        1597, 2584, 4181, 6765]
+    assert feedback, "no feedback arrived"  # the first may precede the subscription's match
+    assert all(list(f.sequence) == sequence[: len(f.sequence)] for f in feedback)
+    assert list(feedback[-1].sequence) == sequence
+
+
+def test_a_goal_the_component_rejects_is_rejected(client):
+    assert not client.wait(client.send_goal_async(Fibonacci.Goal(order=-1))).accepted
+
+
+def test_a_cancel_ends_the_goal_canceled_with_the_terms_so_far(client):
+    handle = client.wait(client.send_goal_async(Fibonacci.Goal(order=100_000)))
+    assert handle.accepted
+    canceling = client.wait(handle.cancel_goal_async())
+    assert canceling.return_code == CancelGoal.Response.ERROR_NONE
+    assert len(canceling.goals_canceling) == 1
+    answer = client.wait(handle.get_result_async())
+    assert answer.status == GoalStatus.STATUS_CANCELED
+    assert list(answer.result.sequence[:5]) == [0, 1, 1, 2, 3]
+
+
+def test_a_newer_goal_preempts_the_running_one(client):
+    first = client.wait(client.send_goal_async(Fibonacci.Goal(order=100_000)))
+    second = client.wait(client.send_goal_async(Fibonacci.Goal(order=3)))
+    assert first.accepted and second.accepted
+    old = client.wait(first.get_result_async())
+    assert old.status == GoalStatus.STATUS_ABORTED and list(old.result.sequence) == [-1]
+    new = client.wait(second.get_result_async())
+    assert new.status == GoalStatus.STATUS_SUCCEEDED and list(new.result.sequence) == [0, 1, 1, 2]
+
+
+def test_an_inactive_component_rejects_goals_at_once(client, ros_node):
+    lifecycle = ros_node.create_client(ChangeState, "/fib/change_state")
+    assert lifecycle.wait_for_service(timeout_sec=20)
+
+    def change(label):
+        request = ChangeState.Request(transition=Transition(label=label))
+        return client.wait(lifecycle.call_async(request)).success
+
+    assert change("deactivate")
+    try:
+        assert not client.wait(client.send_goal_async(Fibonacci.Goal(order=2))).accepted
+    finally:
+        assert change("activate")
+    assert client.wait(client.send_goal_async(Fibonacci.Goal(order=2))).accepted
