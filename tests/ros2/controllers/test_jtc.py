@@ -16,7 +16,7 @@ from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 import rtcf
 from rtcf import GoalStatus
-from rtcf.testing import Cancel, Goal, Trace, run_components
+from rtcf.testing import Cancel, Goal, Trace, run_components, run_launch
 from rtcf_controllers.joint_trajectory_controller import JointTrajectoryController
 
 from ._plants import PositionJoints
@@ -230,3 +230,23 @@ def test_a_cancel_holds_position() -> None:
     record = _goals(trace)[goal.id]
     assert record.cancel_accepted and record.status == GoalStatus.CANCELED
     assert _positions(trace, 59) == pytest.approx([0.3, 0.3])
+
+
+# -- the arm example on ros2_controllers' controllers (MuJoCo) ------------------------------
+ARM_ACTION = "/arm_controller/follow_joint_trajectory"
+
+
+@pytest.mark.parametrize("file", ["arm.launch", "arm.launch.xml"])
+def test_the_arm_example_on_ros2_controllers_reaches_a_goal_given_through_the_action(
+    file: str,
+) -> None:
+    names = ["joint3", "joint1", "joint2"]  # any order, as clients send them
+    goal = _goal(_trajectory(names, (1.0, [0.8, 0.5, -0.2])))
+    trace = run_launch(f"rtcf_examples {file}", 1400, args={"ros2_controllers": "true"},
+                       actions={ARM_ACTION: {100: goal}})
+    record = trace.actions[ARM_ACTION].goals[goal.id]
+    assert record.status == GoalStatus.SUCCEEDED and record.feedback
+    assert trace.outputs["/arm/position"][99].tolist() == pytest.approx([0.0, 0.3, 0.6], abs=1e-3)
+    assert trace.outputs["/arm/position"][-1].tolist() == pytest.approx([0.5, -0.2, 0.8], abs=0.02)
+    states = trace.outputs["/joint_states"][-1]  # rtcf_controllers' joint_state_broadcaster
+    assert list(states.name) == ["joint1", "joint2", "joint3"]
