@@ -19,8 +19,7 @@ from rclpy.action import ActionClient
 from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
-from ..._proc import stop, wait_running
-from ..conftest import start_rtcf
+from ..test_topics import launched
 
 pytestmark = pytest.mark.integration
 
@@ -29,14 +28,8 @@ NAME = "/arm_controller/follow_joint_trajectory"
 
 @pytest.fixture(scope="module")
 def arm():
-    proc = start_rtcf("launch", "rtcf_examples", "arm.launch.xml", "ros2_controllers:=true",
-                      "--middleware", "ros2")
-    try:
-        proc.said = wait_running(proc)
+    with launched("rtcf_examples", "arm.launch.xml", "ros2_controllers:=true") as proc:
         yield proc
-    finally:
-        if proc.poll() is None:
-            stop(proc)
 
 
 @pytest.fixture
