@@ -92,7 +92,9 @@ class JointTrajectoryController(rtcf.Component):
             self.pid.reset()
 
     def stop(self) -> None:
-        self.trajectory = None  # open goals: the framework aborts them after stop
+        if self.goal >= 0:  # as ros2_controllers' on_deactivate
+            self._end(self.action.abort, results.INVALID_GOAL, results.STOPPED)
+        self.trajectory = None
 
     # -- the loop -------------------------------------------------------------------
     def update(self) -> None:

@@ -232,6 +232,14 @@ def test_a_cancel_holds_position() -> None:
     assert _positions(trace, 59) == pytest.approx([0.3, 0.3])
 
 
+def test_a_goal_running_when_the_controller_stops_is_aborted_as_invalid() -> None:
+    goal = _goal(_trajectory(JOINTS, (1.0, [1.0, 1.0])))
+    record = _goals(_run(20, actions={ACTION: {0: goal}}))[goal.id]
+    assert record.status == GoalStatus.ABORTED
+    assert record.result.error_code == Result.INVALID_GOAL
+    assert "deactivate" in record.result.error_string
+
+
 # -- the arm example on ros2_controllers' controllers (MuJoCo) ------------------------------
 ARM_ACTION = "/arm_controller/follow_joint_trajectory"
 
