@@ -4,9 +4,10 @@ One ``rtcf launch --middleware ros2`` process (fixtures/fibonacci.launch.xml) se
 test_msgs/action/Fibonacci from the FibonacciServer component at /fib/fibonacci (the
 whitelist maps it) and, unmapped, at /hidden/fibonacci. The clients do what MoveIt does
 with an action: send a goal, follow its feedback, wait for its result, cancel it, send a
-newer one.
+newer one. The last test ends the process with a goal open.
 """
 
+import signal
 from pathlib import Path
 
 import pytest
@@ -18,6 +19,7 @@ from lifecycle_msgs.srv import ChangeState
 from rclpy.action import ActionClient, get_action_names_and_types
 from test_msgs.action import Fibonacci  # fails loudly where it is missing
 
+from .._proc import read_rest
 from .test_topics import launched
 
 pytestmark = pytest.mark.integration
@@ -113,3 +115,14 @@ def test_an_inactive_component_rejects_goals_at_once(client, ros_node):
     finally:
         assert change("activate")
     assert client.wait(client.send_goal_async(Fibonacci.Goal(order=2))).accepted
+
+
+def test_the_end_of_the_run_aborts_the_open_goal(served, client):
+    """Last: it ends the process (Ctrl-C), which must still answer its open goal."""
+    handle = client.wait(client.send_goal_async(Fibonacci.Goal(order=100_000)))
+    assert handle.accepted
+    result = handle.get_result_async()
+    served.send_signal(signal.SIGINT)
+    assert client.wait(result).status == GoalStatus.STATUS_ABORTED
+    _, err = read_rest(served)
+    assert served.returncode == 0, err

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import time
 from typing import Any
 
 import pytest
@@ -25,8 +26,11 @@ def _json_codec(cls: type) -> Codec:  # a stand-in for rclpy's CDR of a ROS 2 me
 CODECS = {part: _json_codec(getattr(Fibonacci, part)) for part in ("Goal", "Feedback", "Result")}
 
 
+GOAL_BYTES = 4096
+
+
 def _ring(direction: str) -> Ring:
-    records, size = ac.ring_shape(direction)
+    records, size = ac.ring_shape(direction, GOAL_BYTES)
     return Ring.create(bytearray(Ring.nbytes(records, size)), records, size)
 
 
@@ -92,9 +96,11 @@ def test_the_component_sees_the_uuid_and_the_decoded_goal() -> None:
 
 def test_a_goal_too_big_for_the_ring_is_refused_and_a_full_ring_too() -> None:
     requests = _ring(ac.REQUESTS)
-    big = b"x" * (ac.ACTION_GOAL_BYTES + 1)
-    assert ac.too_big(big) and not ac.too_big(big[:-1])
+    assert GOAL_BYTES <= ac.goal_room(requests) < GOAL_BYTES + 8  # records are 8-byte aligned
+    big = b"x" * (ac.goal_room(requests) + 1)
     assert not ac.push_request(requests, ActionRequest.GOAL, 1, bytes(16), big)
+    assert ac.push_request(requests, ActionRequest.GOAL, 1, bytes(16), big[:-1])
+    assert requests.pop() is not None
     for goal_id in range(ac.REQUEST_RECORDS):
         assert ac.push_request(requests, ActionRequest.GOAL, goal_id, bytes(16), b"")
     assert not ac.push_request(requests, ActionRequest.GOAL, 99, bytes(16), b"")
@@ -130,3 +136,37 @@ def test_actions_map_by_their_name_and_their_ports_never_as_topics() -> None:
         assert runner.mapped_actions() == [] and runner.mapped_ports() == ([], [])
     finally:
         runner.shutdown()
+
+
+def test_a_recording_of_every_topic_leaves_the_action_ports_out() -> None:
+    from rtcf._runtime._recording import recorded_topics
+
+    runner = rtcf.Runner(rtcf.RunnerSettings(), clock=rtcf.SimClock())
+    comp = runner.load(rtcf.ComponentSpec("FibServer", FibServer))
+    try:
+        assert recorded_topics(comp.outputs.values(), comp.inputs.values(), ".*") == []
+    finally:
+        runner.shutdown()
+
+
+def test_a_request_still_waiting_at_its_deadline_is_dropped() -> None:
+    requests, events = _ring(ac.REQUESTS), _ring(ac.EVENTS)
+    past = time.monotonic_ns() - 1
+    ac.push_request(requests, ActionRequest.GOAL, 1, bytes(16), _goal(2), deadline_ns=past)
+    ac.push_request(requests, ActionRequest.GOAL, 2, bytes(16), _goal(-1),
+                    deadline_ns=time.monotonic_ns() + 60 * 10**9)
+    _, feeder, _ = _serve(requests, events, 3)
+    assert (feeder.expired, feeder.delivered) == (1, 1)
+    assert [(k, g) for k, _, _, g, _ in ac.drain_events(events)] == [(ActionEvent.RESPONSE, 2)]
+
+
+def test_a_request_handed_over_but_not_taken_is_rejected_when_the_component_stops() -> None:
+    requests, events = _ring(ac.REQUESTS), _ring(ac.EVENTS)
+
+    class Deaf(FibServer):
+        def update(self) -> None:  # never takes a request
+            pass
+
+    ac.push_request(requests, ActionRequest.GOAL, 4, bytes(16), _goal(2))
+    _serve(requests, events, 2, Deaf)
+    assert list(ac.drain_events(events)) == [(ActionEvent.RESPONSE, GoalStatus.UNKNOWN, 0, 4, b"")]

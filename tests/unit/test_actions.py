@@ -267,3 +267,25 @@ def test_deactivate_aborts_open_goals_and_configure_again_keeps_the_server() -> 
         assert comp.fib is server
     finally:
         runner.shutdown()
+
+
+def test_a_refused_decision_leaves_the_request_to_be_rejected_at_stop() -> None:
+    from rtcf._core._action_protocol import ActionEndpoint
+
+    runner = rtcf.Runner(rtcf.RunnerSettings(frequency=100.0), clock=rtcf.SimClock())
+    comp = runner.load(rtcf.ComponentSpec("m", Misbehaving, params={"act": "full"}))
+    client = ActionEndpoint("/fib")
+    comp.fib._events._tap = lambda event: client.receive(event, runner.state.iteration)
+    goals = [client.goal_request(Fibonacci.Goal(), 1), client.goal_request(Fibonacci.Goal(), 2)]
+    port = comp.fib._requests
+
+    def feed() -> None:
+        if goals and not port.has_new_data:
+            port._slot.value = goals.pop(0)
+            port._slot.seq += 1
+
+    with pytest.raises(rtcf.ComponentError, match="max_goals=1"):
+        runner.run(3, feeders=[feed])
+    runner.shutdown()
+    assert client.goals[1].states[-1][1] == S.ABORTED  # open at the stop
+    assert client.goals[2].accepted is False  # its accept was refused: rejected at the stop

@@ -104,6 +104,7 @@ class ActionServer:
             )
         if self._index(goal_id) >= 0:
             raise self._error(f"accept(goal {goal_id}): goal {goal_id} is open already")
+        self._pending = None  # decided (a refused call leaves it to the stop's reject)
         self._write(RESPONSE, goal_id, EXECUTING, None, FLAG_ACCEPTED)
         if preempt is not None:
             for other in self._active:
@@ -116,6 +117,7 @@ class ActionServer:
     def reject(self, req: ActionRequest) -> None:
         """Refuse a goal: it never runs."""
         self._decide(req, GOAL, "reject")
+        self._pending = None
         self._write(RESPONSE, req.goal_id, UNKNOWN, None, 0)
 
     def accept_cancel(self, req: ActionRequest) -> None:
@@ -123,12 +125,14 @@ class ActionServer:
         ``abort``) ends it."""
         self._decide(req, CANCEL, "accept_cancel")
         i = self._move(req.goal_id, CANCELING, "accept_cancel")
+        self._pending = None
         self._write(RESPONSE, req.goal_id, CANCELING, None, FLAG_CANCEL | FLAG_ACCEPTED)
         self._status[i] = CANCELING
 
     def reject_cancel(self, req: ActionRequest) -> None:
         """Refuse to cancel: the goal goes on."""
         self._decide(req, CANCEL, "reject_cancel")
+        self._pending = None
         i = self._index(req.goal_id)
         status = self._status[i] if i >= 0 else UNKNOWN
         self._write(RESPONSE, req.goal_id, status, None, FLAG_CANCEL)
@@ -165,15 +169,22 @@ class ActionServer:
 
     # -- the framework's ---------------------------------------------------------------
     def _abort_open(self) -> None:
-        """After ``stop``: a request left undecided is rejected, open goals ABORTED."""
-        req, self._pending = self._pending, None
-        if req is not None:
-            flags = FLAG_CANCEL if req.kind == CANCEL else 0
-            self._write(RESPONSE, req.goal_id, UNKNOWN, None, flags)
+        """After ``stop``: a request left undecided (or not taken) is rejected, open
+        goals end ABORTED."""
+        undecided = [self._pending]
+        self._pending = None
+        if self._requests.has_new_data:  # handed over, not taken: not left for later
+            undecided.append(self._requests.read())
+        for req in undecided:
+            if req is not None:
+                flags = FLAG_CANCEL if req.kind == CANCEL else 0
+                self._write(RESPONSE, req.goal_id, UNKNOWN, None, flags)
         for goal_id in self._active:
             self._end(goal_id, ABORTED, None, "stop")
 
     def _decide(self, req: ActionRequest, kind: int, verb: str) -> None:
+        """Whether ``req`` may be decided now with ``verb``; the caller clears it once
+        every check passed (a refused decision leaves it undecided)."""
         if req is not self._pending:
             raise self._error(
                 f"{verb}({req!r}): not the request request() returned last, or decided already; "
@@ -187,7 +198,6 @@ class ActionServer:
                 f"{verb}({req!r}): it came in iteration {req.iteration}; decide a request in "
                 "the iteration request() returns it"
             )
-        self._pending = None
 
     def _end(self, goal_id: int, status: GoalStatus, result: Any, verb: str) -> None:
         i = self._move(goal_id, status, verb)

@@ -33,6 +33,8 @@ class RunnerSettings:
     ``ros_qos_depth``/``ros_qos_reliability``/``ros_qos_durability``: the QoS of the
     mapped topics (ROS 1 uses the depth as queue_size and transient_local as latch).
     ``iteration_info``: publish ``~/iteration_info`` (one message per iteration).
+    ``action_max_goal_bytes``: the largest goal (its CDR bytes) a mapped action takes;
+    a larger one is rejected.
     ``max_consecutive_overruns``/``max_overruns_per_second``: watchdogs that end the
     loop through the safe-stop path past that many overruns (0: off).
     ``max_let_overruns``: a watchdog that ends the loop through the safe-stop path
@@ -68,6 +70,7 @@ class RunnerSettings:
     ros_qos_reliability: str = "reliable"
     ros_qos_durability: str = "volatile"
     iteration_info: bool = True
+    action_max_goal_bytes: int = 256 * 1024  # a 100-point 7-joint FollowJointTrajectory: ~20 KiB
     max_consecutive_overruns: int = 0
     max_let_overruns: int = 0
     max_overruns_per_second: int = 0
@@ -119,6 +122,9 @@ class RunnerSettings:
                 raise bad(f"{key} must not be negative")
         if self.ros_qos_depth < 1:
             raise bad(f"ros_qos_depth {self.ros_qos_depth} must be at least 1")
+        if not 1024 <= self.action_max_goal_bytes <= 64 * 1024 * 1024:
+            raise bad(f"action_max_goal_bytes {self.action_max_goal_bytes} must be between "
+                      "1024 and 67108864 (64 MiB)")
         if self.ros_qos_reliability not in RELIABILITIES:
             raise bad(
                 f"ros_qos_reliability {self.ros_qos_reliability!r} is unknown; "
@@ -239,6 +245,7 @@ _CONVERTERS = {
     "ros_qos_reliability": _to_str,
     "ros_qos_durability": _to_str,
     "iteration_info": _to_bool,
+    "action_max_goal_bytes": _to_int,
     "max_consecutive_overruns": _to_int,
     "max_overruns_per_second": _to_int,
     "max_let_overruns": _to_int,
@@ -265,6 +272,7 @@ _EXPECTED = {
     "ros_qos_reliability": "reliable or best_effort",
     "ros_qos_durability": "volatile or transient_local",
     "iteration_info": "true or false",
+    "action_max_goal_bytes": "an integer",
     "max_consecutive_overruns": "an integer",
     "max_overruns_per_second": "an integer",
     "max_let_overruns": "an integer",
@@ -293,6 +301,7 @@ _MEANING = {
     "ros_qos_reliability": "reliable or best_effort",
     "ros_qos_durability": "volatile or transient_local",
     "iteration_info": "publish ~/iteration_info, one message per iteration",
+    "action_max_goal_bytes": "largest goal (CDR bytes) a mapped action takes",
     "max_consecutive_overruns": "watchdog: overruns in a row that end the loop (0: off)",
     "max_overruns_per_second": "watchdog: overruns within a second that end it (0: off)",
     "max_let_overruns": "watchdog: windows a LET lane may miss in a run (0: off)",

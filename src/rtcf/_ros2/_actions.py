@@ -38,11 +38,19 @@ from .._core._action_protocol import (
 )
 from .._core._message_types import message_class
 from .._core._rings import Mailbox, Ring
-from .._runtime._action_channels import REQUESTS, drain_events, push_request, too_big
+from .._runtime._action_channels import REQUESTS, drain_events, goal_room, push_request
 from .._runtime._port_channels import MailboxFanOut, MappedPort
 
-RESPONSE_TIMEOUT_S = 1.0  # a goal or cancel the loop has not answered by then: rejected
+RESPONSE_TIMEOUT_S = 1.0  # a goal or cancel the loop has not taken by then: rejected
+# how long after its deadline an answer to a request handed over just before it may
+# take (an iteration, the doorbell, the drain); the worker drops it at the deadline
+GRACE_S = 0.5
 _ZERO_UUID = bytes(16)
+
+
+def deadline_ns() -> int:
+    """When the worker drops a request not yet handed to the component."""
+    return time.monotonic_ns() + round(RESPONSE_TIMEOUT_S * 1e9)
 
 
 class _Yield:
@@ -108,15 +116,17 @@ class _Served:
         if not bridge.is_active(self.component):  # as ros2_controllers' do
             return GoalResponse.REJECT
         cdr = serialize_message(goal)
-        if too_big(cdr):
-            bridge.warn(f"action {self.name}: a goal of {len(cdr)} bytes is larger than the "
-                        "requests channel's records; rejected")
-            return GoalResponse.REJECT
         with bridge.lock:
+            if self.requests is not None and len(cdr) > goal_room(self.requests):
+                bridge.warn(f"action {self.name}: a goal of {len(cdr)} bytes is larger than "
+                            f"action_max_goal_bytes ({goal_room(self.requests)}); rejected")
+                return GoalResponse.REJECT
             goal_id = self._next_id
             self._next_id += 1
             record = _Goal(goal_id)
-            if self.requests is None or not push_request(self.requests, GOAL, goal_id, uuid, cdr):
+            if self.requests is None or not push_request(
+                self.requests, GOAL, goal_id, uuid, cdr, deadline_ns()
+            ):
                 return GoalResponse.REJECT  # no run, or too many requests waiting
             self.goals[goal_id] = record
             self._by_request[id(goal)] = goal_id
@@ -154,7 +164,7 @@ class _Served:
                 return CancelResponse.REJECT
             record.cancel = None
             if not push_request(self.requests, CANCEL, record.goal_id,
-                                bytes(handle.goal_id.uuid)):
+                                bytes(handle.goal_id.uuid), b"", deadline_ns()):
                 return CancelResponse.REJECT
         answered = await bridge.answer(lambda: record.cancel is not None)
         return CancelResponse.ACCEPT if answered and record.cancel else CancelResponse.REJECT
@@ -247,7 +257,12 @@ class ActionBridge:
     def open(
         self, ports: list[MappedPort], channels: Mapping[str, Ring | Mailbox | MailboxFanOut]
     ) -> None:
-        """Serve the run's mapped actions (a server made once per action, kept)."""
+        """Serve the run's mapped actions (a server made once per action and kept while
+        runs map it; one no run maps any more leaves the graph)."""
+        mapped = {p.topic.removesuffix("/_action/requests") for p in ports
+                  if p.direction == REQUESTS}
+        for gone in [name for name in self._served if name not in mapped]:
+            self._served.pop(gone).server.destroy()
         for port in ports:
             if port.direction != REQUESTS:
                 continue
@@ -289,9 +304,9 @@ class ActionBridge:
     # -- for the coroutines ------------------------------------------------------------
     async def answer(self, done: Callable[[], bool], *, wake: bool = False) -> bool:
         """Wait (without blocking the executor) until ``done()``; False after
-        ``RESPONSE_TIMEOUT_S``. ``wake``: resume at once instead of at the next wake-up
-        (a wait of a few executor passes only)."""
-        deadline = time.monotonic() + RESPONSE_TIMEOUT_S
+        ``RESPONSE_TIMEOUT_S`` and its grace. ``wake``: resume at once instead of at the
+        next wake-up (a wait of a few executor passes only)."""
+        deadline = time.monotonic() + RESPONSE_TIMEOUT_S + GRACE_S
         while not done():
             if time.monotonic() > deadline:
                 return False

@@ -434,7 +434,12 @@ class Ros2Bridge:
 
     def _is_active(self, component: str) -> bool:
         runner = self._runner
-        return runner is None or runner.lifecycle_state(component) == "active"
+        if runner is None:
+            return True
+        try:
+            return runner.lifecycle_state(component) == "active"
+        except RtcfError:  # unloaded meanwhile
+            return False
 
     def close_run(self) -> None:
         """Publish what is left, then let go of the run's channels (open goals end)."""

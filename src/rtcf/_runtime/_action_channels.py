@@ -10,13 +10,17 @@ output's tap does, and the supervisor drains it when the doorbell rings. One rin
 each way keeps the protocol's order.
 
 A record: ``<BBHI`` (kind, status, flags, goal_id), a request's 16-byte UUID, a
-uint32 length, then the message's CDR bytes (Goal, Feedback or Result; none for a
-cancel, a response, or an empty result).
+uint32 length, a request's deadline, then the message's CDR bytes (Goal, Feedback or
+Result; none for a cancel, a response, or an empty result). A request still waiting
+at its deadline (CLOCK_MONOTONIC, which both processes share) is dropped, never handed
+to the component: its client was answered "rejected" by then (a component that was
+inactive, or a loop that stalled, must not run a goal that nobody follows).
 """
 
 from __future__ import annotations
 
 import struct
+import time
 from collections.abc import Callable, Iterator
 from typing import Any
 
@@ -30,24 +34,29 @@ REQUESTS = "action_requests"  # MappedPort.direction of the requests ring
 EVENTS = "action_events"  # ... and of the events ring
 REQUEST_RECORDS = 8
 EVENT_RECORDS = 64
-ACTION_GOAL_BYTES = 256 * 1024  # a 100-point 7-joint FollowJointTrajectory goal: ~20 KiB
 ACTION_EVENT_BYTES = 16 * 1024
-_REQUEST = struct.Struct("<BBHI16sI")
+_REQUEST = struct.Struct("<BBHI16sIQ")
 _EVENT = struct.Struct("<BBHII")
 
 
-def ring_shape(direction: str) -> tuple[int, int]:
-    """(records, record size) of an action's ring in ``direction``."""
+def ring_shape(direction: str, goal_bytes: int) -> tuple[int, int]:
+    """(records, record size) of an action's ring in ``direction``; ``goal_bytes``: the
+    largest goal (the runner's ``action_max_goal_bytes``)."""
     if direction == REQUESTS:
-        return REQUEST_RECORDS, _REQUEST.size + ACTION_GOAL_BYTES
+        return REQUEST_RECORDS, _REQUEST.size + goal_bytes
     return EVENT_RECORDS, _EVENT.size + ACTION_EVENT_BYTES
+
+
+def goal_room(ring: Ring) -> int:
+    """The largest goal (CDR bytes) the requests ring takes."""
+    return ring.record_size - _REQUEST.size
 
 
 def message_codecs(action: str, action_type: type) -> dict[str, Codec]:
     """The codecs of an action's Goal, Feedback and Result (ROS 2 message classes)."""
     codecs = {}
     for part in ("Goal", "Feedback", "Result"):
-        codec = codec_for(getattr(action_type, part), max_message_bytes=ACTION_GOAL_BYTES)
+        codec = codec_for(getattr(action_type, part))
         if codec is None or codec.kind != "ros2":
             raise ConfigurationError(
                 f"action {action} ({action_type.__name__}) is mapped to the middleware "
@@ -61,23 +70,22 @@ def message_codecs(action: str, action_type: type) -> dict[str, Codec]:
 
 
 # -- the supervisor's side ----------------------------------------------------------
-def push_request(ring: Ring, kind: int, goal_id: int, uuid: bytes, cdr: bytes = b"") -> bool:
-    """Write one request; False if the ring is full (the caller rejects it)."""
-    if too_big(cdr) or len(cdr) > ring.record_size - _REQUEST.size:
+def push_request(
+    ring: Ring, kind: int, goal_id: int, uuid: bytes, cdr: bytes = b"", deadline_ns: int = 0
+) -> bool:
+    """Write one request, to be dropped if still waiting at ``deadline_ns`` (monotonic;
+    0: never); False if it is larger than the ring's records (see :func:`goal_room`) or
+    the ring is full (the caller rejects it)."""
+    if len(cdr) > ring.record_size - _REQUEST.size:
         return False
     off = ring.reserve()
     if off < 0:
         return False
-    _REQUEST.pack_into(ring.data, off, kind, 0, 0, goal_id, uuid, len(cdr))
+    _REQUEST.pack_into(ring.data, off, kind, 0, 0, goal_id, uuid, len(cdr), deadline_ns)
     start = off + _REQUEST.size
     ring.data[start : start + len(cdr)] = cdr
     ring.commit()
     return True
-
-
-def too_big(cdr: bytes) -> bool:
-    """Whether a goal's bytes exceed what the requests ring holds."""
-    return len(cdr) > ACTION_GOAL_BYTES
 
 
 def drain_events(ring: Ring) -> Iterator[tuple[int, int, int, int, bytes]]:
@@ -100,13 +108,14 @@ class RequestFeeder:
     component took the one before (called behind the ring's gate: only when records
     wait; a request allocates only then)."""
 
-    __slots__ = ("_decode", "_port", "_ring", "delivered")
+    __slots__ = ("_decode", "_port", "_ring", "delivered", "expired")
 
     def __init__(self, ring: Ring, port: InputPort[Any], goal: Codec) -> None:
         self._ring = ring
         self._port = port
         self._decode = goal.decode
         self.delivered = 0
+        self.expired = 0  # dropped at their deadline (their clients got "rejected")
 
     def __call__(self) -> None:
         port = self._port
@@ -118,7 +127,11 @@ class RequestFeeder:
             return
         data = ring.data
         off = slot * ring.record_size
-        kind, _, _, goal_id, uuid, length = _REQUEST.unpack_from(data, off)
+        kind, _, _, goal_id, uuid, length, deadline = _REQUEST.unpack_from(data, off)
+        if deadline and time.monotonic_ns() > deadline:
+            ring.release(1)
+            self.expired += 1
+            return
         goal = None
         if kind == GOAL:
             begin = off + _REQUEST.size

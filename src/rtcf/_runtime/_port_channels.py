@@ -50,16 +50,17 @@ def mapped_ports(
     outputs: list[OutputPort[Any]],
     unfed_inputs: list[InputPort[Any]],
     actions: Sequence[ActionServer] = (),
+    goal_bytes: int = 256 * 1024,
 ) -> list[MappedPort]:
-    """The channels a run needs, one per mapped topic and two per mapped action, laid
-    out one after the other."""
+    """The channels a run needs, one per mapped topic and two per mapped action (goals
+    up to ``goal_bytes``), laid out one after the other."""
     out: list[MappedPort] = []
     offset = 0
     for server in sorted(actions, key=lambda a: a.name):
         message_codecs(server.name, server.type)  # a ROS 2 action, or say so now
         for direction, topic in ((REQUESTS, server._requests.topic),
                                  (EVENTS, server._events.topic)):
-            records, record_size = ring_shape(direction)
+            records, record_size = ring_shape(direction, goal_bytes)
             size = (Ring.nbytes(records, record_size) + 63) // 64 * 64
             out.append(MappedPort(direction, topic, type_name(server.type), "action",
                                   record_size, offset, size, server.component))
@@ -107,7 +108,7 @@ def segment_size(ports: list[MappedPort]) -> int:
 def create_channel(view: memoryview, port: MappedPort) -> Ring | Mailbox:
     """The supervisor's side: the channel of one mapped port, laid out in ``view``."""
     if port.direction in (REQUESTS, EVENTS):
-        return Ring.create(view, ring_shape(port.direction)[0], port.max_size)
+        return Ring.create(view, ring_shape(port.direction, 0)[0], port.max_size)
     if port.direction == "output":
         return Ring.create(view, OUTPUT_RING_RECORDS, _LEN + port.max_size)
     return Mailbox.create(view, port.max_size)

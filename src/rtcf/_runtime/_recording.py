@@ -21,6 +21,7 @@ from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from typing import Any, Protocol
 
+from .._core._action_protocol import ActionEvent, ActionRequest
 from .._core._errors import ConfigurationError
 from .._core._loop_state import LoopState
 from .._core._message_types import type_name
@@ -70,6 +71,8 @@ def recorded_topics(
         for port in sorted(ports, key=lambda p: p.topic):
             if port.topic in seen or not regex.fullmatch(port.topic):
                 continue
+            if port.type is ActionEvent or port.type is ActionRequest:
+                continue  # an action's two ports: its messages are not recorded (yet)
             seen.add(port.topic)
             codec = codec_for(port.type)
             if codec is None:

@@ -368,7 +368,10 @@ class Worker:
         """Compile the schedule and list the mapped ports and the recorded topics (a
         full-match regex, or None); the supervisor sizes their channels."""
         runner = self._runner()
-        ports = mapped_ports(*runner.mapped_ports(), runner.mapped_actions()) if bridged else []
+        ports = []
+        if bridged:
+            ports = mapped_ports(*runner.mapped_ports(), runner.mapped_actions(),
+                                 self.settings.action_max_goal_bytes)
         recorded = []
         if record is not None:
             fed = runner.mapped_ports()[1] if bridged else []
