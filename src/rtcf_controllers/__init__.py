@@ -20,6 +20,7 @@ from .forward_command_controller import (
     JointGroupVelocityController,
 )
 from .joint_state_broadcaster import JointStateBroadcaster
+from .joint_trajectory_controller import JointTrajectoryController
 from .pid_controller import PidController
 
 __all__ = [
@@ -28,5 +29,6 @@ __all__ = [
     "JointGroupPositionController",
     "JointGroupVelocityController",
     "JointStateBroadcaster",
+    "JointTrajectoryController",
     "PidController",
 ]

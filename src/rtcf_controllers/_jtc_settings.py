@@ -1,0 +1,134 @@
+"""joint_trajectory_controller's parameters, read and checked once in ``configure``.
+
+The names, defaults and the checks of the interface combinations are ros2_controllers'
+(``joint_trajectory_controller_parameters.yaml``, ``validate_jtc_parameters.hpp``);
+what rtcf does not support is refused here, naming the parameter.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from typing import Any
+
+import numpy as np
+
+from ._params import ControllerParameters
+from ._pid import Gains, Pid
+from ._tolerances import Tolerances, from_parameters
+
+COMMANDS = ("position", "velocity", "acceleration", "effort")
+_STATES = ("position", "velocity", "acceleration")
+
+
+def _interfaces(p: ControllerParameters, name: str, allowed: tuple[str, ...]) -> list[str]:
+    chosen = p.names(name, [], non_empty=True)
+    wrong = [i for i in chosen if i not in allowed]
+    if wrong:
+        raise p.error(name, chosen, "a list of " + ", ".join(allowed))
+    return chosen
+
+
+def _combination(commands: list[str], states: list[str]) -> str | None:
+    """Why these interfaces do not go together (ros2_controllers' validators)."""
+    c, s = set(commands), set(states)
+    if "velocity" in c and len(c) > 1 and "position" not in c:
+        return "command 'velocity' goes alone or with 'position'"
+    if "acceleration" in c and not {"velocity", "position"} & c:
+        return "command 'acceleration' needs 'position' or 'velocity'"
+    if "effort" in c and not (len(c) == 1 or c == {"position", "effort"}):
+        return "command 'effort' goes alone or with 'position'"
+    if "position" not in s:
+        return "state_interfaces must list 'position'"
+    if "acceleration" in s and "velocity" not in s:
+        return "state 'acceleration' needs state 'velocity'"
+    if (c in ({"velocity"}, {"effort"}, {"position", "effort"})) and "velocity" not in s:
+        return "commands 'velocity' or 'effort' alone need the 'velocity' state interface"
+    return None
+
+
+class Pids:
+    """control_toolbox's Pid per joint (``gains.<joint>.*``, as pid_controller reads
+    them), and JTC's own ``gains.<joint>.ff_velocity_scale``."""
+
+    def __init__(self, p: ControllerParameters, joints: list[str]) -> None:
+        self.pids = [Pid(Gains.read(p, j)) for j in joints]
+        self.ff_velocity_scale = np.array(
+            [p.number(f"gains.{j}.ff_velocity_scale", 0.0) for j in joints])
+
+    def reset(self) -> None:
+        for pid in self.pids:
+            pid.reset()
+
+    def compute(self, error: np.ndarray, error_dot: np.ndarray, dt: float,
+                out: np.ndarray) -> None:
+        """Adds each joint's PID command to ``out``."""
+        for j, pid in enumerate(self.pids):
+            out[j] += pid.compute_with_rate(float(error[j]), float(error_dot[j]), dt)
+
+
+@dataclasses.dataclass
+class Settings:
+    """What the controller's parameters say (docs/controllers.md lists them)."""
+
+    joints: list[str]
+    command_interfaces: list[str]
+    state_interfaces: list[str]
+    allow_partial: bool
+    allow_nonzero_end: bool
+    from_desired: bool  # interpolate_from_desired_state (or open_loop_control)
+    interpolate: bool  # interpolation_method: splines
+    feedback_every: int  # iterations between feedback messages
+    state_every: int  # iterations between controller_state messages (0: never)
+    defaults: Tolerances
+    cmd_timeout: float  # 0: off
+    pid: Pids | None  # for a lone velocity or effort command
+    velocity_error: bool  # which errors ros2_controllers computes (the rest stay 0)
+    acceleration_error: bool
+
+
+def read_settings(component: Any) -> Settings:
+    """The settings of ``component`` (an rtcf.Component), or ConfigurationError."""
+    p = ControllerParameters(component)
+    joints = p.names("joints", [], non_empty=True)
+    command_joints = p.names("command_joints", [])
+    if command_joints and command_joints != joints:
+        raise p.error("command_joints", command_joints,
+                       "[] or the joints themselves (a subset is not supported by rtcf)")
+    command_interfaces = _interfaces(p, "command_interfaces", COMMANDS)
+    state_interfaces = _interfaces(p, "state_interfaces", _STATES)
+    problem = _combination(command_interfaces, state_interfaces)
+    if problem:
+        raise p.error("command_interfaces", command_interfaces,
+                       f"interfaces that go together: {problem}")
+    for unsupported in ("allow_integration_in_goal_trajectories",
+                        "constraints.decelerate_on_cancel"):
+        if p.flag(unsupported, False):
+            raise p.error(unsupported, True, "false (rtcf does not support it yet)")
+    open_loop = p.flag("open_loop_control", False)
+    monitor_rate = p.number("action_monitor_rate", 20.0, positive=True)
+    state_rate = p.number("state_publish_rate", 50.0)
+    defaults = from_parameters(p, joints)
+    cmd_timeout = p.number("cmd_timeout", 0.0)
+    if 0.0 < cmd_timeout <= defaults.goal_time:
+        component.log.warning("cmd_timeout %g s is not above constraints.goal_time %g s: "
+                              "ignored", cmd_timeout, defaults.goal_time)
+    commands, states = set(command_interfaces), set(state_interfaces)
+    use_pid = (commands == {"velocity"} and not open_loop) or commands == {"effort"}
+    frequency = component.frequency
+    return Settings(
+        joints=joints,
+        command_interfaces=command_interfaces,
+        state_interfaces=state_interfaces,
+        allow_partial=p.flag("allow_partial_joints_goal", False),
+        allow_nonzero_end=p.flag("allow_nonzero_velocity_at_trajectory_end", False),
+        from_desired=p.flag("interpolate_from_desired_state", False) or open_loop,
+        interpolate=p.text("interpolation_method", "splines",
+                           choices=("splines", "none")) == "splines",
+        feedback_every=max(1, round(frequency / monitor_rate)),
+        state_every=max(1, round(frequency / state_rate)) if state_rate > 0 else 0,
+        defaults=defaults,
+        cmd_timeout=cmd_timeout if cmd_timeout > defaults.goal_time else 0.0,
+        pid=Pids(p, joints) if use_pid else None,
+        velocity_error="velocity" in states and bool({"velocity", "effort"} & commands),
+        acceleration_error="acceleration" in states and "acceleration" in commands,
+    )

@@ -1,0 +1,300 @@
+"""joint_trajectory_controller: follows joint trajectories, from the
+``~/follow_joint_trajectory`` action (what MoveIt executes through) or the
+``~/joint_trajectory`` topic, as ros2_controllers' JointTrajectoryController does.
+
+Ports are ros2_control's interfaces, one float64 array per interface in the order of
+``joints``: ``position`` (and ``velocity``, ``acceleration`` when ``state_interfaces``
+lists them) in, ``<interface>_command`` for each of ``command_interfaces`` out.
+Behaviour, parameters and defaults are those of ros2_controllers' Jazzy branch
+(docs/controllers.md lists them, and what differs).
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+import rtcf
+
+from . import _jtc_messages as results
+from ._jtc_messages import Messages
+from ._jtc_settings import COMMANDS, read_settings
+from ._message_types import message_class
+from ._tolerances import Checker, Tolerances, for_goal
+from ._trajectory import Trajectory, check, duration_s, from_message, hold
+
+
+class JointTrajectoryController(rtcf.Component):
+    """ros2_controllers' JointTrajectoryController (see the module's docstring)."""
+
+    ros2_control_type = "joint_trajectory_controller/JointTrajectoryController"
+
+    def configure(self) -> None:
+        JointTrajectoryControllerState = message_class(
+            self, "control_msgs.msg", "JointTrajectoryControllerState")
+        from control_msgs.action import FollowJointTrajectory  # control_msgs imports: checked
+
+        for part in (FollowJointTrajectory.Feedback, FollowJointTrajectory.Result):
+            part()  # their first message runs their imports: here, not in the loop
+        JointTrajectory = message_class(self, "trajectory_msgs.msg", "JointTrajectory")
+        JointTrajectoryPoint = message_class(self, "trajectory_msgs.msg", "JointTrajectoryPoint")
+        self.cfg = cfg = read_settings(self)
+        self.joints = joints = cfg.joints
+        self.pid = cfg.pid
+        self.active_tolerances: Tolerances = cfg.defaults
+
+        # ports: ros2_control's interfaces, and the controller's topics and action
+        self.state_in = {s: self.add_input(s, np.ndarray) for s in self.cfg.state_interfaces}
+        self.command_out = {c: self.add_output(f"{c}_command", np.ndarray)
+                            for c in self.cfg.command_interfaces}
+        self.trajectory_in = self.add_input("~/joint_trajectory", JointTrajectory)
+        self.state_out = self.add_output("~/controller_state", JointTrajectoryControllerState)
+        # one goal runs at a time: a newer one preempts it (accept(preempt=...))
+        self.action = self.add_action_server(
+            "~/follow_joint_trajectory", FollowJointTrajectory, max_goals=1)
+        self.messages = Messages(joints, FollowJointTrajectory, JointTrajectoryControllerState,
+                                 JointTrajectoryPoint)
+
+        # preallocated: the state, the samples, the error and the commands
+        n = len(joints)
+        self.actual = np.zeros((3, n))  # rows: position, velocity, acceleration
+        self.desired = np.zeros((3, n))
+        self.desired_effort = np.zeros(n)
+        self.next = np.zeros((3, n))  # the sample one period ahead: the command
+        self.next_effort = np.zeros(n)
+        self.error = np.zeros((3, n))
+        self.pid_command = np.zeros(n)
+        self.last_command = np.zeros((3, n))  # for interpolate_from_desired_state
+        self.commanded = False  # whether last_command holds a command yet
+        self.checker = Checker(n)
+        self.derivatives = [(row, self.state_in[name]) for row, name in
+                            ((1, "velocity"), (2, "acceleration")) if name in self.state_in]
+        pid = self.pid is not None
+        source = {"position": self.next[0], "acceleration": self.next[2],
+                  "velocity": self.pid_command if pid else self.next[1],
+                  "effort": self.pid_command if pid else self.desired_effort}
+        self.sources = [(port, source[name]) for name, port in self.command_out.items()]
+        self.written: dict[str, np.ndarray] = {}  # port name -> the last command written
+        self.trajectory: Trajectory | None = None
+        self.holding = True
+        self.goal: int = -1  # the goal being executed, -1: none
+        self.goal_iteration = 0
+        self.log.info("joints %s, commands %s, states %s", joints, cfg.command_interfaces,
+                      cfg.state_interfaces)
+
+    def start(self) -> None:
+        self.trajectory = None  # the first update holds where the joints are
+        self.commanded = False
+        self.goal = -1
+        self.active_tolerances = self.cfg.defaults
+        if self.pid is not None:
+            self.pid.reset()
+
+    def stop(self) -> None:
+        if self.goal >= 0:  # as ros2_controllers' on_deactivate
+            self._end(self.action.abort, results.INVALID_GOAL, results.STOPPED)
+        self.trajectory = None
+
+    # -- the loop -------------------------------------------------------------------
+    def update(self) -> None:
+        position = self.state_in["position"].read()
+        if position is None:
+            return  # nothing measured yet: command nothing
+        actual = self.actual
+        actual[0] = position
+        for row, port in self.derivatives:
+            value = port.read()
+            if value is not None:
+                actual[row] = value
+        t = self.time
+        request = self.action.request()
+        if request is not None:
+            self._decide(request, t)
+        if self.trajectory_in.has_new_data:
+            message = self.trajectory_in.read()
+            problem = None if message is None else self._follow(message, t)
+            if problem is not None:
+                self.log.error("~/joint_trajectory ignored: %s", problem)
+        if self.trajectory is None:
+            self._hold()
+        trajectory = self.trajectory
+        assert trajectory is not None
+        first = not trajectory.begun
+        if first:
+            self._begin(trajectory, t)
+        desired = self.desired
+        trajectory.sample(t, desired[0], desired[1], desired[2], self.desired_effort)
+        nxt = self.next
+        heading = trajectory.sample(t + self.period, nxt[0], nxt[1], nxt[2], self.next_effort,
+                                    advance=False)
+        before_last = heading < trajectory.n
+        since = t - float(trajectory.ends[max(heading - 1, 0)])  # since its segment began
+
+        error = self.error
+        np.subtract(desired[0], actual[0], out=error[0])
+        if self.cfg.velocity_error:
+            np.subtract(desired[1], actual[1], out=error[1])
+        if self.cfg.acceleration_error:
+            np.subtract(desired[2], actual[2], out=error[2])
+
+        tolerances = self.active_tolerances
+        timed_out = (not before_last and not self.holding and self.cfg.cmd_timeout > 0.0
+                     and since > self.cfg.cmd_timeout)
+        path_joint = goal_joint = -1
+        if (before_last or first) and not self.holding:
+            path_joint = self.checker.violation(error, tolerances.path)
+        late = False
+        if not before_last and not self.holding:
+            goal_joint = self.checker.violation(error, tolerances.goal)
+            late = goal_joint >= 0 and tolerances.goal_time != 0.0 and since > tolerances.goal_time
+
+        if path_joint < 0 and not late:
+            self._command(error)
+        if self.goal >= 0:
+            self._monitor(path_joint, goal_joint, late, timed_out, before_last, since, trajectory)
+        elif path_joint >= 0:
+            self.log.error("holding position: path tolerance violated (%s)", self._why(
+                tolerances.path, path_joint))
+            self._hold()
+        elif late or timed_out:
+            self.log.error("holding position: %s", "goal_time exceeded" if late
+                           else f"cmd_timeout {self.cfg.cmd_timeout:g} s")
+            self._hold()
+        if self.cfg.state_every and self.iteration % self.cfg.state_every == 0:
+            self._publish_state(t - (trajectory.start or 0.0))
+
+    def _monitor(self, path_joint: int, goal_joint: int, late: bool, timed_out: bool,
+                 before_last: bool, since: float, trajectory: Trajectory) -> None:
+        """The running goal: feedback at action_monitor_rate, and its end."""
+        goal = self.goal
+        if (self.iteration - self.goal_iteration) % self.cfg.feedback_every == 0:
+            self.action.publish_feedback(goal, self.messages.feedback(
+                self, self.desired, self.actual, self.error))
+        tolerances = self.active_tolerances
+        if path_joint >= 0:
+            why = self._why(tolerances.path, path_joint)
+            self.log.warning("goal %d aborted: path tolerance violated (%s)", goal, why)
+            self._end(self.action.abort, results.PATH_TOLERANCE_VIOLATED,
+                      "Aborted due to path tolerance violation")
+            self._hold()
+        elif before_last:
+            return
+        elif goal_joint < 0:
+            self.log.info("goal %d reached", goal)
+            self._end(self.action.succeed, results.SUCCESSFUL, "Goal successfully reached!")
+            self._hold(trajectory)
+        elif late:
+            text = f"Aborted due to goal_time_tolerance exceeding by {since:f} seconds"
+            self.log.warning("goal %d: %s (%s)", goal, text, self._why(tolerances.goal, goal_joint))
+            self._end(self.action.abort, results.GOAL_TOLERANCE_VIOLATED, text)
+            self._hold()
+        elif timed_out:
+            self.log.warning("goal %d aborted: cmd_timeout %g s after its last point",
+                             goal, self.cfg.cmd_timeout)
+            self._end(self.action.abort, results.GOAL_TOLERANCE_VIOLATED,
+                      "Aborted due to command timeout")
+            self._hold()
+
+    def _command(self, error: np.ndarray) -> None:
+        """Write the commands: the sample one period ahead (through the PID for a
+        velocity or effort interface alone)."""
+        nxt = self.next
+        pid = self.pid
+        if pid is not None:
+            command = self.pid_command
+            np.multiply(nxt[1], pid.ff_velocity_scale, out=command)
+            if "effort" in self.command_out:
+                command += self.next_effort
+            pid.compute(error[0], error[1], self.period, command)
+        for port, source in self.sources:
+            value = source.copy()  # a port's value must not change once written
+            port.write(value)
+            self.written[port.name] = value
+        self.last_command[:] = nxt
+        self.commanded = True
+
+    # -- trajectories: new ones, holds -------------------------------------------------
+    def _begin(self, trajectory: Trajectory, t: float) -> None:
+        from_desired = self.cfg.from_desired and self.commanded
+        state = self.last_command if from_desired else self.actual
+        has_velocity = from_desired or "velocity" in self.state_in
+        has_acceleration = from_desired or "acceleration" in self.state_in
+        trajectory.begin(t, state[0], state[1] if has_velocity else None,
+                         state[2] if has_acceleration else None)
+
+    def _hold(self, trajectory: Trajectory | None = None) -> None:
+        """Hold where the joints are (zero velocity), or at ``trajectory``'s last point."""
+        p, v, a = (self.actual[0].copy(), None, None) if trajectory is None else (
+            trajectory.last_point())
+        self.trajectory = hold(p, v, a, self.cfg.command_interfaces,
+                               interpolate=self.cfg.interpolate)
+        self.holding = True
+
+    def _follow(self, message: Any, t: float) -> str | None:
+        """Follow a trajectory message from now on, or say why not."""
+        problem = check(message, self.joints, allow_partial=self.cfg.allow_partial,
+                        allow_nonzero_end_velocity=self.cfg.allow_nonzero_end,
+                        allow_effort="effort" in self.cfg.command_interfaces)
+        if problem is not None:
+            return problem
+        stamp = message.header.stamp
+        stamp_ns = int(stamp.sec) * 1_000_000_000 + int(stamp.nanosec)
+        start = None
+        if stamp_ns:
+            start = t + (stamp_ns - self.stamp_ns) * 1e-9
+            end = start + duration_s(message.points[-1].time_from_start)
+            if end < t:
+                return f"its header stamp {stamp_ns * 1e-9:f} s plus its last point is in the past"
+        # joints a partial goal leaves out hold their position command (else the state)
+        commanded = self.commanded and "position" in self.command_out
+        held = self.last_command[0] if commanded else self.actual[0]
+        self.trajectory = from_message(message, self.joints, lambda j: float(held[j]),
+                                       start=start, interpolate=self.cfg.interpolate)
+        self.holding = False
+        return None
+
+    # -- the action ---------------------------------------------------------------------
+    def _decide(self, request: rtcf.ActionRequest, t: float) -> None:
+        action = self.action
+        if request.kind == rtcf.ActionRequest.CANCEL:
+            if request.goal_id != self.goal:
+                action.reject_cancel(request)
+                return
+            action.accept_cancel(request)
+            self.log.info("goal %d canceled: holding position", self.goal)
+            self._end(action.canceled, 0, "")  # an empty result
+            self._hold()
+            return
+        goal = request.goal
+        problem = self._follow(goal.trajectory, t)
+        if problem is not None:
+            self.log.error("goal %d rejected: %s", request.goal_id, problem)
+            action.reject(request)
+            return
+        action.accept(request, preempt=self.messages.result(
+            results.INVALID_GOAL, results.PREEMPTED))
+        if self.goal >= 0:
+            self.log.info("goal %d preempted by goal %d", self.goal, request.goal_id)
+        self.goal = request.goal_id
+        self.goal_iteration = self.iteration
+        self.active_tolerances, why = for_goal(self.cfg.defaults, goal, self.joints)
+        if why is not None:
+            self.log.error("goal %d runs on the default tolerances: %s", self.goal, why)
+        self.log.info("goal %d accepted: %d points", self.goal, len(goal.trajectory.points))
+
+    def _end(self, verb: Any, code: int, text: str) -> None:
+        verb(self.goal, self.messages.result(code, text))
+        self.goal = -1
+        self.active_tolerances = self.cfg.defaults
+
+    # -- what goes out ------------------------------------------------------------------
+    def _why(self, tolerance: np.ndarray, joint: int) -> str:
+        return Checker.describe(self.error, tolerance, joint, self.joints[joint])
+
+    def _publish_state(self, since: float) -> None:
+        output = [self.written.get(f"{name}_command") for name in COMMANDS]
+        self.state_out.write(self.messages.state(
+            self, self.desired, self.actual, self.error, output,
+            has_velocity="velocity" in self.state_in,
+            has_acceleration="acceleration" in self.state_in, since=since))
