@@ -11,4 +11,6 @@ unchanged: ``<param from="controllers.yaml"/>`` in a ROS 2 launch file.
 Load them from a launch file with ``args="rtcf_controllers ClassName"``.
 """
 
-__all__: list[str] = []
+from .diff_drive_controller import DiffDriveController
+
+__all__ = ["DiffDriveController"]
