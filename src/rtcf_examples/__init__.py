@@ -26,7 +26,7 @@ from ._components import (
     Sine,
     StepSupervisor,
 )
-from ._diffbot import MujocoDiffbot
+from ._diffbot import MujocoDiffbot, TwistSequence
 
 __all__ = [
     "BareMinimum",
@@ -49,4 +49,5 @@ __all__ = [
     "Sine",
     "StepSupervisor",
     "TrajectoryInterpolator",
+    "TwistSequence",
 ]

@@ -93,3 +93,41 @@ class MujocoDiffbot(rtcf.Component):
         self.data.ctrl[:] = 0.0
         self.log.warning("safe stop: wheels braked to zero speed")
         return True
+
+
+class TwistSequence(rtcf.Component):
+    """Drives a base without ROS: ``geometry_msgs/TwistStamped`` on ``cmd_vel``, stamped
+    with the iteration's time, through ``~segments`` in turn, then nothing (the
+    controller's ``cmd_vel_timeout`` brakes the base: what a teleop that stops
+    publishing does). ``~segments`` lists ``linear.x`` [m/s], ``angular.z`` [rad/s] and
+    seconds for each segment one after the other (ROS parameters take flat lists).
+    Writes at its own rate (``rate``; 50 Hz in diffbot.launch, as teleop publishes).
+    Needs geometry_msgs (ROS 2: pip install 'rtcf[ros2]').
+    """
+
+    def configure(self) -> None:
+        try:
+            from geometry_msgs.msg import TwistStamped
+        except ImportError:
+            raise rtcf.ConfigurationError(
+                "TwistSequence needs geometry_msgs: pip install 'rtcf[ros2]'"
+            ) from None
+        flat = [float(x) for x in self.params.get("~segments", [])]
+        if not flat or len(flat) % 3 or any(s <= 0.0 for s in flat[2::3]):
+            raise rtcf.ConfigurationError(
+                f"~segments is {flat}: give linear [m/s], angular [rad/s] and seconds > 0 "
+                "for each segment, one after the other"
+            )
+        self.segments = [tuple(flat[k : k + 3]) for k in range(0, len(flat), 3)]
+        self.ends = np.cumsum([s for _, _, s in self.segments])
+        self.message = TwistStamped
+        self.cmd_vel = self.add_output("cmd_vel", TwistStamped)
+
+    def update(self) -> None:
+        k = int(np.searchsorted(self.ends, self.time, side="right"))
+        if k >= len(self.segments):
+            return  # done: no more commands
+        message = self.message()  # a new one per write: a reader may still hold the last
+        self.stamp_to(message.header.stamp)
+        message.twist.linear.x, message.twist.angular.z = self.segments[k][:2]
+        self.cmd_vel.write(message)
