@@ -27,9 +27,10 @@ class MujocoDiffbot(rtcf.Component):
 
     Reads ``velocity_command`` (each wheel's speed, rad/s; none yet: zero), which the
     model's velocity servos track, and writes what it measured after the step:
-    ``position`` [rad] and ``velocity`` [rad/s] of the wheels, and ``base_pose``, the
-    ground truth that a real robot does not have: ``[x, y, yaw]`` [m, m, rad] of the
-    base's body in the world (for tests and plots, beside the odometry).
+    ``position`` [rad] and ``velocity`` [rad/s] of the wheels, and ``~base_pose``
+    (its own: ``/diffbot/base_pose`` for a component named diffbot), the ground truth
+    that a real robot does not have: ``[x, y, yaw]`` [m, m, rad] of the base's body
+    in the world (for tests and plots, beside the odometry).
 
     ``~joints`` orders the arrays (default: the model's actuated joints in its order,
     left_wheel_joint then right_wheel_joint for the shipped model, as
@@ -68,7 +69,7 @@ class MujocoDiffbot(rtcf.Component):
         self.velocity_command = self.add_input("velocity_command", np.ndarray)
         self.position = self.add_output("position", np.ndarray)
         self.velocity = self.add_output("velocity", np.ndarray)
-        self.base_pose = self.add_output("base_pose", np.ndarray)
+        self.base_pose = self.add_output("~base_pose", np.ndarray)
         self.log.info(
             "%s: wheels %s, %d step(s) of %g ms per iteration",
             path, ", ".join(joints), self.steps, float(model.opt.timestep) * 1e3,

@@ -48,7 +48,7 @@ def test_odometry_of_the_diffbot_follows_the_ground_truth(linear, angular):
     odom = trace.last(ODOM)
     # the odometry published last, against the truth of the same iteration (1 kHz)
     k = round(stamp_s(odom.header.stamp) * 1000.0)
-    x, y, heading = trace.outputs["/base_pose"][k]
+    x, y, heading = trace.outputs["/diffbot/base_pose"][k]
     distance = math.hypot(x, y)
     assert distance > 0.85 * linear * 2.0  # it did drive
     position = odom.pose.pose.position
