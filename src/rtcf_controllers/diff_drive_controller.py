@@ -120,6 +120,9 @@ class DiffDriveController(rtcf.Component):
         # the first message of a type loads its type support (an import): here, not in
         # the loop
         self._odometry_message(0.0, 0.0, 0.0, 1.0)
+        twist()
+        if tf_message is not None:
+            tf_message(transforms=[transform()])
         self.reset()
 
     def _frames(self, p: ControllerParameters) -> tuple[str, str]:
