@@ -11,8 +11,9 @@ import pytest
 from geometry_msgs.msg import TwistStamped
 
 import rtcf
-from rtcf.testing import run_components, run_launch
+from rtcf.testing import SimClock, run_components, run_launch
 from rtcf_controllers import DiffDriveController
+from rtcf_examples import MujocoDiffbot
 
 CMD = "/diffbot_base_controller/cmd_vel"
 ODOM = "/diffbot_base_controller/odom"
@@ -153,6 +154,38 @@ def test_tf_carries_odom_to_base_with_the_prefix_rules(namespace, params, frames
     # at publish_rate (50 Hz): every second iteration at 100 Hz
     stamps = {stamp_s(m.header.stamp) for m in trace.outputs[name + "/odom"]}
     assert len(stamps) == 15
+
+
+class Teleop(rtcf.Component):
+    """0.5 m/s on cmd_vel, every iteration (a zero stamp: now)."""
+
+    def configure(self):
+        self.cmd_vel = self.add_output("/diff_drive_controller/cmd_vel", TwistStamped)
+
+    def update(self):
+        self.cmd_vel.write(twist(0.5, 0.0))
+
+
+def test_deactivating_the_controller_stops_the_wheels_and_keeps_the_odometry():
+    runner = rtcf.Runner(rtcf.RunnerSettings(frequency=1000.0), clock=SimClock())
+    base = runner.load(rtcf.ComponentSpec("diffbot", MujocoDiffbot, is_first=True))
+    spec, name = controller(open_loop=False)
+    drive = runner.load(spec)
+    runner.load(rtcf.ComponentSpec("teleop", Teleop))
+    try:
+        runner.run(500)
+        assert base.data.ctrl.tolist() == [10.0, 10.0]
+        assert runner.change_state(name, "deactivate").ok
+        runner.run(300)  # the servos brake the base to a standstill
+        assert base.data.ctrl.tolist() == [0.0, 0.0]
+        assert np.abs(base.data.qvel[base.qvel]).max() < 1e-3  # the wheels stand still
+        x = drive.odometry.x
+        assert x > 0.2  # 0.5 m/s for 0.5 s
+        assert runner.change_state(name, "activate").ok
+        runner.run(10)
+        assert drive.odometry.x >= x  # from where it was, not from the origin
+    finally:
+        runner.shutdown()
 
 
 def test_open_loop_integrates_the_commands_without_feedback():
