@@ -13,6 +13,7 @@ Load them from a launch file with ``args="rtcf_controllers ClassName"``
 importing this package needs no ROS.
 """
 
+from .diff_drive_controller import DiffDriveController
 from .forward_command_controller import (
     ForwardCommandController,
     JointGroupEffortController,
@@ -24,6 +25,7 @@ from .joint_trajectory_controller import JointTrajectoryController
 from .pid_controller import PidController
 
 __all__ = [
+    "DiffDriveController",
     "ForwardCommandController",
     "JointGroupEffortController",
     "JointGroupPositionController",

@@ -26,6 +26,7 @@ from ._components import (
     Sine,
     StepSupervisor,
 )
+from ._diffbot import MujocoDiffbot, TwistSequence
 
 __all__ = [
     "BareMinimum",
@@ -40,6 +41,7 @@ __all__ = [
     "Logging",
     "Mimo",
     "MujocoArm",
+    "MujocoDiffbot",
     "PaperExample",
     "ParameterHandling",
     "Pid",
@@ -47,4 +49,5 @@ __all__ = [
     "Sine",
     "StepSupervisor",
     "TrajectoryInterpolator",
+    "TwistSequence",
 ]

@@ -13,19 +13,20 @@ from __future__ import annotations
 
 import itertools
 import math
-from importlib import resources
 from typing import Any
 
 import numpy as np
 
 import rtcf
 
+from . import _mujoco
+
 MODEL = "arm.xml"  # shipped in rtcf_examples/models
 
 
 def shipped_model() -> str:
     """The path of the example's MJCF model (package data)."""
-    return str(resources.files("rtcf_examples").joinpath("models", MODEL))
+    return _mujoco.shipped_model(MODEL)
 
 
 def _floats(value: Any, n: int, what: str) -> np.ndarray:
@@ -56,35 +57,15 @@ class MujocoArm(rtcf.Component):
     """
 
     def configure(self) -> None:
-        try:
-            import mujoco
-        except ImportError:
-            raise rtcf.ConfigurationError(
-                "MujocoArm needs the mujoco package: pip install 'rtcf[mujoco]'"
-            ) from None
-        self.mujoco = mujoco
-        path = str(self.params.get("~model", "") or shipped_model())
-        try:
-            self.model = mujoco.MjModel.from_xml_path(path)
-        except (ValueError, OSError) as exc:
-            raise rtcf.ConfigurationError(f"~model {path}: {exc}") from None
-        model = self.model
+        sim = _mujoco.load_simulation(self, MODEL)
+        mujoco, model, path = sim.mujoco, sim.model, sim.path
+        self.mujoco, self.model, self.data, self.steps = mujoco, model, sim.data, sim.steps
         if model.nu != model.nv or model.nq != model.nv:
             raise rtcf.ConfigurationError(
                 f"~model {path}: MujocoArm drives arms of hinge or slide joints, one "
                 f"motor each; this model has {model.nq} positions, {model.nv} velocities "
                 f"and {model.nu} actuators"
             )
-        timestep = float(model.opt.timestep)
-        steps = self.period / timestep
-        if abs(steps - round(steps)) > 1e-6 or round(steps) < 1:
-            raise rtcf.ConfigurationError(
-                f"~model {path}: its timestep {timestep * 1e3:g} ms does not divide this "
-                f"component's period {self.period * 1e3:g} ms; set <option timestep> in "
-                "the model, or the loop's frequency or the component's rate"
-            )
-        self.steps = round(steps)
-        self.data = mujoco.MjData(model)
         n = model.nu
         self.joints = [model.joint(int(model.actuator_trnid[i, 0])).name for i in range(n)]
         initial = self.params.get("~initial_positions", [0.0] * n)
@@ -97,7 +78,7 @@ class MujocoArm(rtcf.Component):
         self.gravity = self.add_output("gravity", np.ndarray)
         self.log.info(
             "%s: %d joints (%s), %d step(s) of %g ms per iteration",
-            path, n, ", ".join(self.joints), self.steps, timestep * 1e3,
+            path, n, ", ".join(self.joints), self.steps, float(model.opt.timestep) * 1e3,
         )
 
     def update(self) -> None:

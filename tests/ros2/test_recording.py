@@ -6,12 +6,20 @@ same messages again."""
 import signal
 from pathlib import Path
 
+import numpy as np
 import pytest
 from geometry_msgs.msg import Point, PointStamped
 from mcap.reader import make_reader
+from nav_msgs.msg import Odometry
 from rosbags.highlevel import AnyReader
 from rosbags.typesys import Stores, get_typestore
 from std_msgs.msg import Header
+
+import rtcf.recording
+from rtcf._ros2._msgdef import message_definition
+from rtcf._runtime._codec import codec_for
+from rtcf._runtime._mcap import McapRecording
+from rtcf._runtime._recording import Record, RecordedTopic
 
 from .._proc import read_rest, wait_for
 from .conftest import start_rtcf
@@ -79,3 +87,20 @@ def test_a_recording_of_ros_inputs_and_message_outputs_replays_without_ros(ros_n
                           if not c.topic.endswith("/iteration_info"))
 
     assert cdr(replay) == cdr(path)
+
+
+def test_a_message_with_fixed_size_arrays_is_recorded_and_read_back(tmp_path):
+    """rclpy gives fixed-size arrays (Odometry's covariances) as numpy arrays, which
+    mcap_ros2's encoder refuses: the recording writes such messages as plain values."""
+    codec = codec_for(Odometry)
+    out = McapRecording(str(tmp_path / "odom.mcap"), message_definition=message_definition)
+    out.begin([RecordedTopic("/odom", "output", "nav_msgs/msg/Odometry", "ros2", 4096, 8)])
+    for k in range(3):
+        message = Odometry()
+        message.pose.pose.position.x = 0.5 * k
+        message.pose.covariance = np.arange(36.0) * k
+        out.write(Record("/odom", k, k * 1_000_000, codec.encode(message)))
+    out.finish({}, {})
+    rec = rtcf.recording.read(tmp_path / "odom.mcap")
+    assert rec.series("/odom", "pose.pose.position.x").values.tolist() == [0.0, 0.5, 1.0]
+    assert rec.series("/odom", "pose.covariance").values[2, 35] == 70.0

@@ -54,6 +54,17 @@ PRIMITIVES: dict[str, tuple[str, str]] = {
 RECORD_HINT = "install the recording extra: pip install 'rtcf[record]'"
 
 
+def _with_lists(value: Any) -> Any:
+    """A ROS 2 message as plain values (dicts, lists), every numpy array a list."""
+    fields = getattr(value, "get_fields_and_field_types", None)
+    if fields is not None:
+        return {name: _with_lists(getattr(value, name)) for name in fields()}
+    if isinstance(value, list):
+        return [_with_lists(v) for v in value]
+    tolist = getattr(value, "tolist", None)  # a numpy array
+    return tolist() if tolist is not None else value
+
+
 def _primitive_message(kind: str, value: Any) -> Any:
     if kind == "float_array":
         data = [float(x) for x in value]
@@ -106,6 +117,7 @@ class McapRecording:
         self._writer: Any = None
         self._file: Any = None
         self._channels: dict[str, tuple[Any, Codec, str]] = {}  # topic -> schema, codec, kind
+        self._as_lists: set[str] = set()  # ROS 2 topics written as plain values
         # the runner's iteration_info, one message per timing row (rtcf evaluate reads it)
         self.timing_topic: str | None = None
         self._timing_schema: Any = None
@@ -161,14 +173,24 @@ class McapRecording:
         # its alignment padding uninitialized, so equal messages would differ in bytes
         value = codec.decode(record.payload)
         message = value if kind == "ros2" else _primitive_message(kind, value)
-        self._writer.write_message(
-            record.topic,
-            schema,
-            message,
-            log_time=stamp,
-            publish_time=stamp,
-            sequence=record.iteration & 0xFFFFFFFF,
-        )
+        if record.topic in self._as_lists:
+            message = _with_lists(message)
+        sequence = record.iteration & 0xFFFFFFFF
+        try:
+            self._writer.write_message(
+                record.topic, schema, message,
+                log_time=stamp, publish_time=stamp, sequence=sequence,
+            )
+        except ValueError:
+            # mcap_ros2 takes arrays as lists; rclpy gives fixed-size ones (Odometry's
+            # covariance) as numpy arrays: such a topic's messages go as plain values
+            if kind != "ros2" or record.topic in self._as_lists:
+                raise
+            self._as_lists.add(record.topic)
+            self._writer.write_message(
+                record.topic, schema, _with_lists(message),
+                log_time=stamp, publish_time=stamp, sequence=sequence,
+            )
         self.messages[record.topic] += 1
 
     def timing_rows(self, rows: Any, offset_ns: int) -> None:

@@ -1,0 +1,311 @@
+"""ros2_controllers' diff_drive_controller as an rtcf component (docs/controllers.md).
+
+Velocity commands for a differential-drive base (``~/cmd_vel``) become wheel speeds;
+odometry from the wheels is published on ``~/odom`` and ``/tf``. Parameter names,
+defaults and behaviour are those of the Jazzy release's
+``diff_drive_controller_parameter.yaml`` and ``diff_drive_controller.cpp``.
+"""
+
+from __future__ import annotations
+
+import math
+from typing import Any
+
+import numpy as np
+
+import rtcf
+
+from ._odometry import Odometry
+from ._params import ControllerParameters
+from ._speed_limiter import speed_limiter
+
+_NS = 1_000_000_000
+_THROTTLE_NS = _NS  # ros2_controllers' warnings in the loop: at most one a second
+
+
+def _import_messages(enable_odom_tf: bool) -> tuple[Any, Any, Any, Any]:
+    try:
+        from geometry_msgs.msg import TransformStamped, TwistStamped
+        from nav_msgs.msg import Odometry as OdometryMessage
+    except ImportError:
+        raise rtcf.ConfigurationError(
+            "DiffDriveController needs geometry_msgs and nav_msgs: pip install 'rtcf[ros2]' "
+            "(or source ROS 2)"
+        ) from None
+    tf_message = None
+    if enable_odom_tf:
+        try:
+            from tf2_msgs.msg import TFMessage
+        except ImportError:
+            raise rtcf.ConfigurationError(
+                "DiffDriveController's /tf (enable_odom_tf: true) needs tf2_msgs, which PyPI "
+                "lacks: set up with bash scripts/setup-ros2 (docs/ros2.md), or set "
+                "enable_odom_tf: false"
+            ) from None
+        tf_message = TFMessage
+    return TwistStamped, OdometryMessage, TransformStamped, tf_message
+
+
+class DiffDriveController(rtcf.Component):
+    """diff_drive_controller/DiffDriveController: a base's twist to its wheels' speeds,
+    and odometry back.
+
+    Ports (ros2_control's interfaces, one float64 array, a value per wheel in the order
+    ``left_wheel_names`` then ``right_wheel_names``): ``velocity_command`` [rad/s]
+    out; ``position`` [rad] in (``position_feedback: true``, the default) or
+    ``velocity`` [rad/s] (``false``), neither with ``open_loop: true``.
+    Topics: ``~/cmd_vel`` (geometry_msgs/TwistStamped) in; ``~/odom``
+    (nav_msgs/Odometry) and ``/tf`` (tf2_msgs/TFMessage, ``enable_odom_tf``) out at
+    ``publish_rate``; ``~/cmd_vel_out`` (the limited command,
+    ``publish_limited_velocity``).
+    """
+
+    ros2_control_type = "diff_drive_controller/DiffDriveController"
+
+    def configure(self) -> None:
+        p = ControllerParameters(self)
+        self.left_names = p.names("left_wheel_names", non_empty=True)
+        self.right_names = p.names("right_wheel_names", non_empty=True)
+        if len(self.left_names) != len(self.right_names):
+            raise rtcf.ConfigurationError(
+                f"component {self.full_name!r}: {len(self.left_names)} left wheels and "
+                f"{len(self.right_names)} right wheels: give as many on each side"
+            )
+        self.wheels_per_side = len(self.left_names)
+        separation = p.number("wheel_separation", positive=True)
+        radius = p.number("wheel_radius", positive=True)
+        self.separation = p.number("wheel_separation_multiplier", 1.0) * separation
+        self.left_radius = p.number("left_wheel_radius_multiplier", 1.0) * radius
+        self.right_radius = p.number("right_wheel_radius_multiplier", 1.0) * radius
+        self.open_loop = p.flag("open_loop", False)
+        self.position_feedback = p.flag("position_feedback", True)
+        self.enable_odom_tf = p.flag("enable_odom_tf", True)
+        self.publish_limited_velocity = p.flag("publish_limited_velocity", False)
+        timeout = p.number("cmd_vel_timeout", 0.5)
+        self.timeout_ns = round(timeout * _NS) if timeout > 0.0 else 0  # 0: no timeout
+        publish_rate = p.number("publish_rate", 50.0, positive=True)
+        self.publish_period_ns = round(_NS / publish_rate)
+        window = p.integer("velocity_rolling_window_size", 10)
+        kinds = ("pose", "twist")
+        covariances = [p.numbers(f"{kind}_covariance_diagonal", [0.0] * 6) for kind in kinds]
+        for kind, diagonal in zip(kinds, covariances, strict=True):
+            if len(diagonal) != 6:
+                raise rtcf.ConfigurationError(
+                    f"component {self.full_name!r}: {kind}_covariance_diagonal has "
+                    f"{len(diagonal)} numbers; give 6 (x, y, z, roll, pitch, yaw)"
+                )
+        self.linear_limiter = speed_limiter(p, self, "linear.x")
+        self.angular_limiter = speed_limiter(p, self, "angular.z")
+        odom_frame, base_frame = self._frames(p)
+
+        twist, odometry, transform, tf_message = _import_messages(self.enable_odom_tf)
+        self.twist_message, self.odometry_message = twist, odometry
+        self.transform_message, self.tf_message = transform, tf_message
+        self.odom_frame, self.base_frame = odom_frame, base_frame
+        self.pose_covariance = np.diag(covariances[0]).reshape(36)
+        self.twist_covariance = np.diag(covariances[1]).reshape(36)
+        self.odometry = Odometry(self.separation, self.left_radius, self.right_radius, window)
+
+        self.cmd_vel = self.add_input("~cmd_vel", twist)
+        self.velocity_command = self.add_output("velocity_command", np.ndarray)
+        self.feedback = None
+        if not self.open_loop:
+            interface = "position" if self.position_feedback else "velocity"
+            self.feedback = self.add_input(interface, np.ndarray)
+        self.odom = self.add_output("~odom", odometry)
+        self.tf = self.add_output("/tf", tf_message) if self.enable_odom_tf else None
+        self.cmd_vel_out = (
+            self.add_output("~cmd_vel_out", twist) if self.publish_limited_velocity else None
+        )
+        # the first message of a type loads its type support (an import): here, not in
+        # the loop
+        self._odometry_message(0.0, 0.0, 0.0, 1.0)
+        twist()
+        if tf_message is not None:
+            tf_message(transforms=[transform()])
+        self.reset()
+
+    def _frames(self, p: ControllerParameters) -> tuple[str, str]:
+        """odom_frame_id and base_frame_id with the tf prefix: tf_frame_prefix, or the
+        namespace when it is empty; never a leading '/', always a trailing one."""
+        prefix = ""
+        if p.flag("tf_frame_prefix_enable", True):
+            prefix = p.text("tf_frame_prefix", "") or self.namespace
+            if not prefix.endswith("/"):
+                prefix += "/"
+            if prefix.startswith("/"):
+                prefix = prefix[1:]
+        odom, base = p.text("odom_frame_id", "odom"), p.text("base_frame_id", "base_link")
+        return prefix + odom, prefix + base
+
+    def reset(self) -> None:
+        """The odometry back to the origin (configure, cleanup), and the buffers."""
+        self.odometry.reset()
+        self.reset_buffers()
+
+    def reset_buffers(self) -> None:
+        """No command yet (NaN, stamped when the next update runs), and the two
+        commands before it zero, as ros2_controllers' reset_buffers."""
+        self.command_linear = self.command_angular = math.nan
+        self.command_stamp_ns = -1  # set to the first update's time
+        self.reference_linear = self.reference_angular = math.nan
+        self.last = [0.0, 0.0]  # linear, angular of the last command
+        self.before_last = [0.0, 0.0]
+        self.next_publish_ns = -1  # the first update publishes
+        self.warned_ns = {"timeout": -_THROTTLE_NS, "nan": -_THROTTLE_NS}
+        self.received = False  # a cmd_vel since: its NaN is worth a warning
+
+    def start(self) -> None:
+        self.reset_buffers()
+
+    def stop(self) -> None:
+        """Deactivated: the wheels are commanded to stop (ros2_controllers' halt)."""
+        self._write_wheels(0.0, 0.0)
+        self.reset_buffers()
+
+    def safe_stop(self) -> bool:
+        self._write_wheels(0.0, 0.0)
+        return True
+
+    def cleanup(self) -> None:
+        self.reset()
+
+    # -- the loop ------------------------------------------------------------
+    def update(self) -> None:
+        now = self.stamp_ns
+        if self.command_stamp_ns < 0:
+            self.command_stamp_ns = now
+        self._receive(now)
+        self._update_reference(now)
+        linear, angular = self.reference_linear, self.reference_angular
+        if not (math.isfinite(linear) and math.isfinite(angular)):
+            return  # no command yet: the wheels keep what the hardware had
+        dt = self.period
+        last, before = self.last, self.before_last
+        linear = self.linear_limiter.limit(linear, last[0], before[0], dt)
+        angular = self.angular_limiter.limit(angular, last[1], before[1], dt)
+        before[0], before[1] = last[0], last[1]
+        last[0], last[1] = linear, angular
+
+        time = self.time
+        if self.open_loop:
+            self.odometry.update_open_loop(linear, angular, time)
+        elif not self._update_odometry(time, dt):
+            return  # no feedback yet: ros2_controllers writes no command then either
+        if now > self.next_publish_ns:
+            if self.next_publish_ns < 0:
+                self.next_publish_ns = now
+            self.next_publish_ns += self.publish_period_ns
+            self._publish()
+        if self.cmd_vel_out is not None:
+            out = self.twist_message()
+            self.stamp_to(out.header.stamp)
+            out.twist.linear.x, out.twist.angular.z = linear, angular
+            self.cmd_vel_out.write(out)
+        half_turn = angular * self.separation / 2.0
+        self._write_wheels(
+            (linear - half_turn) / self.left_radius, (linear + half_turn) / self.right_radius
+        )
+
+    def _receive(self, now: int) -> None:
+        """A new ~/cmd_vel is taken if younger than cmd_vel_timeout (a zero stamp is
+        now); an older one is ignored with a warning."""
+        if not self.cmd_vel.has_new_data:
+            return
+        message = self.cmd_vel.read()
+        if message is None:
+            return
+        stamp = message.header.stamp
+        stamp_ns = stamp.sec * _NS + stamp.nanosec
+        if stamp_ns == 0:
+            stamp_ns = now
+        if self.timeout_ns and now - stamp_ns >= self.timeout_ns:
+            self.log.warning(
+                "ignoring a cmd_vel stamped %.3f s ago, older than cmd_vel_timeout %.3f s",
+                (now - stamp_ns) / _NS, self.timeout_ns / _NS,
+            )
+            return
+        self.command_linear = message.twist.linear.x
+        self.command_angular = message.twist.angular.z
+        self.command_stamp_ns = stamp_ns
+        self.received = True
+
+    def _update_reference(self, now: int) -> None:
+        """What the wheels follow: the command, or zero once it is older than
+        cmd_vel_timeout (braking); a command with NaN leaves the reference as it was."""
+        if self.timeout_ns and now - self.command_stamp_ns > self.timeout_ns:
+            self.reference_linear = self.reference_angular = 0.0
+            self._throttled("timeout", now, "velocity command timed out: braking")
+        elif math.isfinite(self.command_linear) and math.isfinite(self.command_angular):
+            self.reference_linear = self.command_linear
+            self.reference_angular = self.command_angular
+        elif self.received:  # else: no command yet, which is no news
+            self._throttled("nan", now, "cmd_vel holds NaN: the reference is not updated")
+
+    def _update_odometry(self, time: float, dt: float) -> bool:
+        assert self.feedback is not None
+        wheels = self.feedback.read()
+        if wheels is None:
+            return False
+        n = self.wheels_per_side
+        if len(wheels) != 2 * n:
+            raise ValueError(
+                f"{self.feedback.topic} has {len(wheels)} values; give {2 * n}, one per wheel "
+                f"({', '.join(self.left_names + self.right_names)})"
+            )
+        left = float(wheels[0]) if n == 1 else float(wheels[:n].mean())
+        right = float(wheels[n]) if n == 1 else float(wheels[n:].mean())
+        if math.isnan(left) or math.isnan(right):
+            raise ValueError(f"{self.feedback.topic} holds NaN: {wheels}")
+        if self.position_feedback:
+            self.odometry.update(left, right, time)
+        else:
+            self.odometry.update_from_travel(
+                left * self.left_radius * dt, right * self.right_radius * dt, time
+            )
+        return True
+
+    def _publish(self) -> None:
+        odometry = self.odometry
+        half = odometry.heading * 0.5
+        qz, qw = math.sin(half), math.cos(half)
+        message = self._odometry_message(odometry.x, odometry.y, qz, qw)
+        self.odom.write(message)
+        if self.tf is not None:
+            transform = self.transform_message()
+            transform.header.stamp = message.header.stamp
+            transform.header.frame_id = self.odom_frame
+            transform.child_frame_id = self.base_frame
+            transform.transform.translation.x = odometry.x
+            transform.transform.translation.y = odometry.y
+            transform.transform.rotation.z = qz
+            transform.transform.rotation.w = qw
+            self.tf.write(self.tf_message(transforms=[transform]))
+
+    def _odometry_message(self, x: float, y: float, qz: float, qw: float) -> Any:
+        # a new message per write (publish_rate, 50 Hz): an in-process reader may
+        # still hold the last one
+        message = self.odometry_message()
+        self.stamp_to(message.header.stamp)
+        message.header.frame_id = self.odom_frame
+        message.child_frame_id = self.base_frame
+        pose = message.pose
+        pose.pose.position.x, pose.pose.position.y = x, y
+        pose.pose.orientation.z, pose.pose.orientation.w = qz, qw
+        pose.covariance = self.pose_covariance
+        twist = message.twist
+        twist.twist.linear.x, twist.twist.angular.z = self.odometry.linear, self.odometry.angular
+        twist.covariance = self.twist_covariance
+        return message
+
+    def _write_wheels(self, left: float, right: float) -> None:
+        n = self.wheels_per_side
+        speeds = np.empty(2 * n)
+        speeds[:n] = left
+        speeds[n:] = right
+        self.velocity_command.write(speeds)
+
+    def _throttled(self, key: str, now: int, text: str) -> None:
+        if now - self.warned_ns[key] >= _THROTTLE_NS:
+            self.warned_ns[key] = now
+            self.log.warning(text)
