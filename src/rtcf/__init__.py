@@ -1,5 +1,6 @@
 """rtcf: real-time control components in Python, wired like ROS nodes, run in one loop."""
 
+from ._core._cdr import Serialized as Serialized
 from ._core._clock import Clock as Clock
 from ._core._clock import MonotonicClock as MonotonicClock
 from ._core._clock import SimClock as SimClock

@@ -6,6 +6,7 @@ import types
 
 import rtcf
 from rtcf._core import (
+    _cdr,
     _clock,
     _component,
     _errors,
@@ -39,6 +40,7 @@ EXPECTED = {
     "Runner": _runner.Runner,
     "RunResult": _runner.RunResult,
     "RunnerSettings": _settings.RunnerSettings,
+    "Serialized": _cdr.Serialized,
 }
 
 
