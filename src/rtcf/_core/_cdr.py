@@ -65,25 +65,32 @@ class _Field:
 
 class _Struct:
     """A nested message of a Serialized: its fields as attributes, read as a rosidl
-    message's are (numbers, numpy views of sequences, strings), numbers also written."""
+    message's are (numbers, numpy views of sequences, strings), numbers also written.
 
-    __slots__ = ("_cls", "_fields")
+    Every field but a single number is an entry of the instance's ``__dict__`` once the
+    bytes are final (:meth:`_bind`), so ``js.position`` is one dictionary look-up (the
+    loop's path); a single number is read through ``__getattr__``."""
 
     def __init__(self, cls: type, fields: dict[str, _Field]) -> None:
-        object.__setattr__(self, "_cls", cls)
-        object.__setattr__(self, "_fields", fields)
+        self.__dict__["_cls"] = cls
+        self.__dict__["_fields"] = fields
+
+    def _bind(self, into: dict[str, Any], skip: Any = ()) -> None:
+        for name, field in self._fields.items():
+            if field.kind == "struct":
+                field.value._bind(field.value.__dict__)
+            elif field.kind == "structs":
+                for s in field.value:
+                    s._bind(s.__dict__)
+            if field.kind != "number" and name not in skip:
+                into.setdefault(name, field.view if field.kind == "numbers" else field.value)
 
     def __getattr__(self, name: str) -> Any:
-        try:
-            field = self._fields[name]
-        except KeyError:
-            raise AttributeError(f"{type_name(self._cls)} has no field {name!r}") from None
-        if field.kind == "number":
-            assert field.view is not None
-            return field.view[0].item()
-        if field.kind == "numbers":
-            return field.view
-        return field.value
+        field = self.__dict__["_fields"].get(name)
+        if field is None:
+            raise AttributeError(f"{type_name(self._cls)} has no field {name!r}")
+        assert field.kind == "number" and field.view is not None
+        return field.view[0].item()
 
     def __setattr__(self, name: str, value: Any) -> None:
         field = self._fields.get(name)
@@ -149,8 +156,6 @@ class Serialized:
     ``js.header.stamp.sec``). ``to_message()`` makes the rosidl message (allocates).
     """
 
-    __slots__ = ("_cdr", "_data", "_root", "_stamp_at", "message_class")
-
     def __init__(self, message_class: type, /, **fields: Any) -> None:
         if not hasattr(message_class, "get_fields_and_field_types"):
             raise TypeError(
@@ -168,6 +173,8 @@ class Serialized:
             )
         self._stamp_at = _stamp_offset(self._root)
         self._data = tuple(layout.used)  # (start, end) of the bytes that are not padding
+        # the fields as attributes (one look-up each), but where a name is rtcf's
+        self._root._bind(self.__dict__, skip=_OWN)
 
     @classmethod
     def of(cls, message: Any) -> Serialized:
@@ -220,10 +227,23 @@ class Serialized:
     def __len__(self) -> int:
         return len(self._cdr)
 
-    def __getattr__(self, name: str) -> Any:
-        if name.startswith("__"):
+    def __getattr__(self, name: str) -> Any:  # a single number (or no such field)
+        root = self.__dict__.get("_root")
+        if root is None or name.startswith("__"):
             raise AttributeError(name)
-        return getattr(self._root, name)
+        return getattr(root, name)
+
+    def __setattr__(self, name: str, value: Any) -> None:
+        if name == "stamp_ns":  # the loop's: no property call on top of this one
+            at = self._stamp_at
+            if at >= 0:
+                _TIME.pack_into(self._cdr, at, value // 1_000_000_000, value % 1_000_000_000)
+                return
+        root = self.__dict__.get("_root")
+        if root is not None and name in root._fields:
+            setattr(root, name, value)  # numbers into their bytes; the rest refused
+        else:
+            object.__setattr__(self, name, value)
 
     def __repr__(self) -> str:
         return f"<Serialized {type_name(self.message_class)}: {len(self._cdr)} bytes>"
@@ -249,6 +269,9 @@ class Serialized:
         if len(other) < len(self._cdr) or other[:4] != self._cdr[:4]:
             return False
         return all(other[a:b] == self._cdr[a:b] for a, b in self._data)
+
+
+_OWN = frozenset(dir(Serialized))
 
 
 class _Layout:
