@@ -135,3 +135,20 @@ def test_a_let_lane_in_process_gets_the_message_of_its_release(
     assert isinstance(private.value, msgs.State)
     assert private.value.position == [1.0]
     assert np.array_equal(s.position, [2.0])
+
+
+def test_the_trace_keeps_each_iterations_message(msgs: types.ModuleType) -> None:
+    import rtcf
+    from rtcf.testing import run_components
+
+    class Writer(rtcf.Component):
+        def configure(self) -> None:
+            self.out = self.add_output("state", msgs.State)
+            self.s = Serialized(msgs.State, position=1)
+
+        def update(self) -> None:
+            self.s.position[0] = self.iteration
+            self.out.write(self.s)
+
+    trace = run_components([Writer], iterations=3)
+    assert [m.position for m in trace.outputs["/state"]] == [[0.0], [1.0], [2.0]]
