@@ -152,3 +152,12 @@ def test_the_trace_keeps_each_iterations_message(msgs: types.ModuleType) -> None
 
     trace = run_components([Writer], iterations=3)
     assert [m.position for m in trace.outputs["/state"]] == [[0.0], [1.0], [2.0]]
+
+
+def test_a_stamp_anywhere(msgs: types.ModuleType) -> None:
+    s = Serialized(msgs.State)
+    set_stamp = s.stamp_setter("header.stamp")
+    set_stamp(3_000_000_004)
+    assert (s.header.stamp.sec, s.header.stamp.nanosec) == (3, 4) and s.stamp_ns == 3_000_000_004
+    with pytest.raises(ValueError, match="not a builtin_interfaces/Time"):
+        s.stamp_setter("header")

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import re
 import struct
-from collections.abc import Iterator, Mapping
+from collections.abc import Callable, Iterator, Mapping
 from typing import Any
 
 import numpy as np
@@ -197,6 +197,24 @@ class Serialized:
         if at < 0:
             raise AttributeError(f"{type_name(self.message_class)} has no header.stamp")
         _TIME.pack_into(self._cdr, at, t // 1_000_000_000, t % 1_000_000_000)
+
+    def stamp_setter(self, path: str) -> Callable[[int], None]:
+        """A function that stores a time in nanoseconds into the ``builtin_interfaces/Time``
+        at ``path`` (``"transforms[0].header.stamp"``): for the loop, as ``stamp_ns``
+        is for ``header.stamp``."""
+        field = self._find(path)
+        at = _time_offset(field.value) if field.kind == "struct" else -1
+        if at < 0:
+            raise ValueError(
+                f"Serialized({type_name(self.message_class)}): {path!r} is not a "
+                "builtin_interfaces/Time"
+            )
+        cdr, pack = self._cdr, _TIME.pack_into
+
+        def set_stamp(t: int) -> None:
+            pack(cdr, at, t // 1_000_000_000, t % 1_000_000_000)
+
+        return set_stamp
 
     def view(self, path: str) -> np.ndarray:
         """The numpy view of a numeric field, by its dotted path: a number's is of
@@ -441,10 +459,15 @@ def _stamp_offset(root: _Struct) -> int:
     if header is None or header.kind != "struct":
         return -1
     stamp = header.value._fields.get("stamp")
-    if stamp is None or stamp.kind != "struct":
+    return -1 if stamp is None or stamp.kind != "struct" else _time_offset(stamp.value)
+
+
+def _time_offset(time: _Struct) -> int:
+    """Where a Time's ``sec`` starts (its ``nanosec`` follows), or -1 if it is none."""
+    sec, nanosec = time._fields.get("sec"), time._fields.get("nanosec")
+    if sec is None or nanosec is None or (sec.dtype, nanosec.dtype) != ("<i4", "<u4"):
         return -1
-    sec = stamp.value._fields.get("sec")
-    return -1 if sec is None or sec.dtype != "<i4" else sec.offset
+    return sec.offset if nanosec.offset == sec.offset + 4 and len(time._fields) == 2 else -1
 
 
 def _packed_view(cdr: bytearray, struct_: _Struct) -> np.ndarray | None:
