@@ -8,6 +8,7 @@ import rtcf
 from rtcf._core import (
     _action_protocol,
     _actions,
+    _cdr,
     _clock,
     _component,
     _errors,
@@ -45,6 +46,7 @@ EXPECTED = {
     "Runner": _runner.Runner,
     "RunResult": _runner.RunResult,
     "RunnerSettings": _settings.RunnerSettings,
+    "Serialized": _cdr.Serialized,
 }
 
 

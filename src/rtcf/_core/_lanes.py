@@ -24,6 +24,7 @@ from __future__ import annotations
 from collections.abc import Iterable, Mapping, Sequence
 from dataclasses import dataclass
 
+from ._cdr import Serialized
 from ._errors import ConfigurationError
 from ._lane_names import MAIN_LANE
 from ._loop_state import LoopState
@@ -249,6 +250,9 @@ class LocalLet:
 
 
 def _copy(src: Slot, dst: Slot) -> None:
-    dst.value = src.value
+    value = src.value
+    # a Serialized is rewritten in place by its writer: hand over what lanes in their
+    # own processes hand over, the message of its bytes now
+    dst.value = value.to_message() if type(value) is Serialized else value
     dst.seq = src.seq
     dst.iteration = src.iteration

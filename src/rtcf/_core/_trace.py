@@ -10,6 +10,7 @@ from __future__ import annotations
 import csv
 from typing import Any
 
+from ._cdr import Serialized
 from ._component import Component
 from ._loop_state import LoopState
 from ._ports import Slot
@@ -43,7 +44,7 @@ class Trace:
 
     def sample(self) -> None:
         s = self._state
-        self.rows.append([s.iteration, s.time_ns, *(slot.value for slot in self._slots)])
+        self.rows.append([s.iteration, s.time_ns, *(_kept(slot.value) for slot in self._slots)])
 
     def write(self, path: str) -> None:
         with open(path, "w", newline="") as f:
@@ -51,6 +52,12 @@ class Trace:
             out.writerow(["iteration", "time_ns", *self.topics])
             for row in self.rows:
                 out.writerow([row[0], row[1], *(_cell(v) for v in row[2:])])
+
+
+def _kept(value: Any) -> Any:
+    """A value as it was now: a Serialized is rewritten in place by its writer, so the
+    trace keeps its message."""
+    return value.to_message() if type(value) is Serialized else value
 
 
 def _cell(value: Any) -> str:

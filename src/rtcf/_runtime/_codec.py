@@ -5,8 +5,10 @@ Values that go to or come from the middleware cross from the worker to the super
 are packed as they are (no middleware is needed in the worker for them); a 1-D float
 numpy array as its float64 bytes; a ROS 2 message class as the CDR bytes of
 ``rclpy.serialization`` (which loads rclpy's type support, not its client library:
-no context, no node, no thread); a ROS 1 message class as the bytes of its own
-``serialize`` (genpy: pure Python, imports no rospy).
+no context, no node, no thread), or, for a :class:`rtcf.Serialized` of that class
+written to the port, the bytes it holds already (no message is built in the loop); a
+ROS 1 message class as the bytes of its own ``serialize`` (genpy: pure Python, imports
+no rospy).
 """
 
 from __future__ import annotations
@@ -17,7 +19,9 @@ from dataclasses import dataclass
 from io import BytesIO
 from typing import Any
 
-from .._core._message_types import is_ros1_message, is_ros2_message
+from .._core._cdr import Serialized, example_fields
+from .._core._errors import ConfigurationError
+from .._core._message_types import is_ros1_message, is_ros2_message, type_name
 
 _F64 = struct.Struct("<d")
 _I64 = struct.Struct("<q")
@@ -100,7 +104,8 @@ def codec_for(cls: type, *, max_message_bytes: int = 64 * 1024) -> Codec | None:
             return deserialize_message(b, _cls)
 
         _warm(lambda: decode(serialize_message(cls())))
-        return Codec("ros2", serialize_message, decode, max_message_bytes)
+        _check_serialized(cls)
+        return Codec("ros2", _ros2_encoder(cls, serialize_message), decode, max_message_bytes)
     if is_ros1_message(cls):
 
         def decode1(b: bytes, _cls: type = cls) -> Any:
@@ -109,6 +114,50 @@ def codec_for(cls: type, *, max_message_bytes: int = 64 * 1024) -> Codec | None:
         _warm(lambda: decode1(_encode_ros1(cls())))
         return Codec("ros1", _encode_ros1, decode1, max_message_bytes)
     return None
+
+
+def _ros2_encoder(cls: type, serialize: Callable[[Any], bytes]) -> Callable[[Any], bytes]:
+    """A message's CDR bytes: a Serialized's own (the bytearray itself: every caller
+    copies them into its channel at once), else rclpy's."""
+
+    def encode(value: Any) -> Any:
+        if type(value) is Serialized:
+            if value.message_class is not cls:
+                raise TypeError(
+                    f"a Serialized({type_name(value.message_class)}) was written to a port "
+                    f"of {type_name(cls)}"
+                )
+            return value._cdr
+        return serialize(value)
+
+    return encode
+
+
+_checked: dict[type, bool] = {}
+
+
+def _check_serialized(cls: type) -> None:
+    """Once per message class, where its codec is made: a Serialized of it, with an
+    element in every sequence and text in every string, gives bytes that rclpy reads
+    back as the same message and that equal rclpy's own but for padding."""
+    if cls in _checked:
+        return
+    from rclpy.serialization import deserialize_message, serialize_message
+
+    try:
+        ours = Serialized(cls, **example_fields(cls))
+    except (TypeError, ValueError, LookupError):
+        _checked[cls] = False  # a type Serialized cannot lay out: none can be written
+        return
+    message = ours.to_message()
+    if not ours.same_but_padding(serialize_message(message)) or (
+        deserialize_message(bytes(ours), cls) != message
+    ):
+        raise ConfigurationError(
+            f"rtcf.Serialized lays {type_name(cls)} out otherwise than rclpy serializes it "
+            "(a changed encoding?); write rosidl messages to its ports, and report it"
+        )
+    _checked[cls] = True
 
 
 def _warm(round_trip: Callable[[], Any]) -> None:
