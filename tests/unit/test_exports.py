@@ -87,7 +87,7 @@ def test_testing_module_exports_exactly_these() -> None:
     import rtcf.testing
 
     assert sorted(rtcf.testing.__all__) == [
-        "InputValues", "SimClock", "Trace", "run_components", "run_launch"
+        "InputValues", "SILENCE", "SimClock", "Trace", "run_components", "run_launch"
     ]
     public = {n for n in vars(rtcf.testing) if not n.startswith("_")}
     assert set(rtcf.testing.__all__) <= public
