@@ -21,6 +21,7 @@ total time past its deadline are what timing.json, the run's summary and
 
 from __future__ import annotations
 
+from array import array
 from dataclasses import asdict, dataclass, field
 from typing import TYPE_CHECKING, Any
 
@@ -82,6 +83,7 @@ class _Track:
     count: int = 0
     total_ns: int = 0  # past its deadline, the periods that ended
     event: DeadlineEvent | None = None  # the open one
+    bit: int = 0  # its bit in DeadlineWatch.bits (0: past the 63rd)
 
 
 @dataclass
@@ -95,6 +97,10 @@ class DeadlineWatch:
     tracks: dict[int, _Track] = field(default_factory=dict)  # by id(port)
     events: list[DeadlineEvent] = field(default_factory=list)
     taken_out: dict[str, str] = field(default_factory=dict)  # component -> its fallback
+    # a worker's shared words: bit k set while the k-th watched input (names()) is past
+    # its deadline, and how many times any passed it (a supervisor reads them live)
+    bits: Any = field(default_factory=lambda: array("q", [0]))
+    misses: Any = field(default_factory=lambda: array("q", [0]))
     _watched: tuple[_Track, ...] = ()
 
     def refresh(self) -> bool:
@@ -123,7 +129,17 @@ class DeadlineWatch:
                 tracks[id(port)] = track
         self.tracks = tracks
         self._watched = tuple(tracks.values())
+        bits = 0
+        for k, track in enumerate(self._watched):
+            track.bit = 1 << k if k < 63 else 0
+            bits |= track.bit if track.port._expired else 0
+        self.bits[0] = bits
         return bool(tracks)
+
+    def names(self) -> list[str]:
+        """The watched inputs (component.input), in the order of the bits."""
+        self.refresh()
+        return [t.port.qualified_name for t in self._watched]
 
     def __call__(self) -> None:
         """At an iteration boundary: arrivals, then deadlines passed."""
@@ -167,6 +183,8 @@ class DeadlineWatch:
     def _expire(self, track: _Track, t: int) -> None:
         port, entry = track.port, track.entry
         port._expired = True
+        self.bits[0] |= track.bit
+        self.misses[0] += 1
         track.since_ns = t
         track.count += 1
         name = entry.spec.full_name
@@ -198,6 +216,7 @@ class DeadlineWatch:
     def _back(self, track: _Track, t: int) -> None:
         port = track.port
         port._expired = False
+        self.bits[0] &= ~track.bit
         track.total_ns += t - track.since_ns
         event = track.event
         if event is not None:

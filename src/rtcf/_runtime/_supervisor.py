@@ -235,7 +235,14 @@ class WorkerRunner:
             log_records_dropped=self.log_records_dropped,
             faults=self._process.faults,
             access=self.admission.access,
+            deadlines=self.past_deadline(),
         )
+
+    def past_deadline(self) -> tuple[tuple[str, ...], int]:
+        """The inputs past their deadline now, by name, and how many times any passed it."""
+        bits, misses = self._process.deadline_words
+        names = self.runs.deadline_names
+        return tuple(n for k, n in enumerate(names[:63]) if bits >> k & 1), misses
 
     # -- the runner's verbs ------------------------------------------------------
     def admits(self, what: str, module: str | None = None, component: str | None = None,
