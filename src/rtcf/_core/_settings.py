@@ -32,6 +32,9 @@ class RunnerSettings:
     names that choose the ports mapped to middleware topics.
     ``ros_qos_depth``/``ros_qos_reliability``/``ros_qos_durability``: the QoS of the
     mapped topics (ROS 1 uses the depth as queue_size and transient_local as latch).
+    ``ros_qos_deadline``: ROS 2 mapped inputs with a deadline also request it as their
+    QoS ``deadline`` and liveliness lease (their publishers must offer as much, or DDS
+    does not connect them).
     ``iteration_info``: publish ``~/iteration_info`` (one message per iteration).
     ``max_consecutive_overruns``/``max_overruns_per_second``: watchdogs that end the
     loop through the safe-stop path past that many overruns (0: off).
@@ -67,6 +70,7 @@ class RunnerSettings:
     ros_qos_depth: int = 10
     ros_qos_reliability: str = "reliable"
     ros_qos_durability: str = "volatile"
+    ros_qos_deadline: bool = False
     iteration_info: bool = True
     max_consecutive_overruns: int = 0
     max_let_overruns: int = 0
@@ -238,6 +242,7 @@ _CONVERTERS = {
     "ros_qos_depth": _to_int,
     "ros_qos_reliability": _to_str,
     "ros_qos_durability": _to_str,
+    "ros_qos_deadline": _to_bool,
     "iteration_info": _to_bool,
     "max_consecutive_overruns": _to_int,
     "max_overruns_per_second": _to_int,
@@ -264,6 +269,7 @@ _EXPECTED = {
     "ros_qos_depth": "an integer",
     "ros_qos_reliability": "reliable or best_effort",
     "ros_qos_durability": "volatile or transient_local",
+    "ros_qos_deadline": "true or false",
     "iteration_info": "true or false",
     "max_consecutive_overruns": "an integer",
     "max_overruns_per_second": "an integer",
@@ -292,6 +298,7 @@ _MEANING = {
     "ros_qos_depth": "QoS depth of the mapped topics",
     "ros_qos_reliability": "reliable or best_effort",
     "ros_qos_durability": "volatile or transient_local",
+    "ros_qos_deadline": "ROS 2 inputs with a deadline request it as QoS deadline and lease",
     "iteration_info": "publish ~/iteration_info, one message per iteration",
     "max_consecutive_overruns": "watchdog: overruns in a row that end the loop (0: off)",
     "max_overruns_per_second": "watchdog: overruns within a second that end it (0: off)",

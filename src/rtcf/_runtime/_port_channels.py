@@ -39,6 +39,7 @@ class MappedPort:
     max_size: int
     offset: int = 0  # in the run's port segment
     nbytes: int = 0
+    deadline: float = 0.0  # an input's: the shortest deadline of the ports reading it
 
 
 def mapped_ports(
@@ -48,6 +49,11 @@ def mapped_ports(
     out: list[MappedPort] = []
     offset = 0
     seen: set[str] = set()
+    deadlines: dict[str, float] = {}  # per input topic, the shortest of its readers'
+    for reader in unfed_inputs:
+        if reader._deadline_ns > 0:
+            d = reader._deadline_ns / 1e9
+            deadlines[reader.topic] = min(d, deadlines.get(reader.topic, d))
     for direction, ports in (("output", outputs), ("input", unfed_inputs)):
         for port in sorted(ports, key=lambda p: p.topic):
             if port.topic in seen:
@@ -64,6 +70,7 @@ def mapped_ports(
                 MappedPort(
                     direction, port.topic, type_name(port.type), codec.kind, codec.max_size,
                     offset, size,
+                    deadlines.get(port.topic, 0.0) if direction == "input" else 0.0,
                 )
             )
             offset += size

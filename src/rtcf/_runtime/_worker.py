@@ -379,6 +379,7 @@ class Worker:
         """Compile the schedule and list the mapped ports and the recorded topics (a
         full-match regex, or None); the supervisor sizes their channels."""
         runner = self._runner()
+        deadlines = runner.deadlines.names()  # (the launch file's deadlines applied)
         ports = mapped_ports(*runner.mapped_ports()) if bridged else []
         recorded = []
         if record is not None:
@@ -386,7 +387,7 @@ class Worker:
             recorded = recorded_topics(_all_outputs(runner), fed, record)
         return {
             "schedule": runner.schedule, "ports": ports, "recorded": recorded,
-            "deadlines": runner.deadlines.names(),  # bit k of CTL_DEADLINES
+            "deadlines": deadlines,  # bit k of CTL_DEADLINES
         }
 
     def run(
