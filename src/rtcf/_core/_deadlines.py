@@ -21,6 +21,7 @@ total time past its deadline are what timing.json, the run's summary and
 
 from __future__ import annotations
 
+import sys
 from array import array
 from dataclasses import asdict, dataclass, field
 from typing import TYPE_CHECKING, Any
@@ -38,6 +39,7 @@ if TYPE_CHECKING:
     from ._ports import InputPort
 
 MAX_EVENTS = 1000  # kept per runner's life (the counts go on past it)
+NEVER = sys.maxsize
 
 
 @dataclass
@@ -70,15 +72,18 @@ class DeadlineEvent:
         )
 
 
-@dataclass
+@dataclass(slots=True)
 class _Track:
     """What the watch keeps of one input across runs."""
 
     port: InputPort[Any]
     entry: Loaded
     deadline_ns: int
+    slot: Any = None  # the port's slot (taken again before each run: wiring may change it)
     seq: int = 0  # the slot's seq last seen
-    arrival_ns: int = -1  # the start of the iteration that saw it (-1: nothing yet)
+    # last arrival + deadline: past it, the deadline applies (NEVER: nothing yet, or
+    # past it already)
+    due_ns: int = sys.maxsize
     since_ns: int = 0  # when it expired
     count: int = 0
     total_ns: int = 0  # past its deadline, the periods that ended
@@ -123,9 +128,12 @@ class DeadlineWatch:
                     continue
                 old = self.tracks.get(id(port))
                 track = old if old is not None and old.port is port else _Track(
-                    port, entry, port._deadline_ns, seq=port._slot.seq
+                    port, entry, port._deadline_ns
                 )
+                if track.due_ns != NEVER:  # a deadline the launch file changed
+                    track.due_ns += port._deadline_ns - track.deadline_ns
                 track.entry, track.deadline_ns = entry, port._deadline_ns
+                track.slot = port._slot
                 tracks[id(port)] = track
         self.tracks = tracks
         self._watched = tuple(tracks.values())
@@ -141,22 +149,18 @@ class DeadlineWatch:
         self.refresh()
         return [t.port.qualified_name for t in self._watched]
 
-    def __call__(self) -> None:
-        """At an iteration boundary: arrivals, then deadlines passed."""
+    def check(self) -> None:
+        """At an iteration boundary: arrivals, then deadlines passed (the loop's last
+        feeder: per input, one look at its slot and one comparison)."""
         t = self.state.time_ns
         for track in self._watched:
-            port = track.port
-            seq = port._slot.seq
+            seq = track.slot.seq
             if seq != track.seq:
                 track.seq = seq
-                track.arrival_ns = t
-                if port._expired:
+                track.due_ns = t + track.deadline_ns
+                if track.port._expired:
                     self._back(track, t)
-            elif (
-                not port._expired and track.arrival_ns >= 0
-                and t > track.arrival_ns + track.deadline_ns
-                and track.entry.state == ACTIVE
-            ):
+            elif t > track.due_ns and track.entry.state == ACTIVE:
                 self._expire(track, t)
 
     def summary(self) -> dict[str, dict[str, Any]]:
@@ -183,6 +187,8 @@ class DeadlineWatch:
     def _expire(self, track: _Track, t: int) -> None:
         port, entry = track.port, track.entry
         port._expired = True
+        arrival = track.due_ns - track.deadline_ns
+        track.due_ns = NEVER  # until the next value
         self.bits[0] |= track.bit
         self.misses[0] += 1
         track.since_ns = t
@@ -194,7 +200,7 @@ class DeadlineWatch:
         )
         event = DeadlineEvent(
             port.qualified_name, port.topic, track.deadline_ns / 1e9, self.state.iteration,
-            t / 1e9, track.arrival_ns / 1e9, action,
+            t / 1e9, arrival / 1e9, action,
         )
         track.event = event
         if len(self.events) < MAX_EVENTS:
