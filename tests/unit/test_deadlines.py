@@ -7,14 +7,21 @@ tests hold on both (test_hotpath.py checks the ports' EXPIRED side by side).
 
 from __future__ import annotations
 
+import dataclasses
 from typing import Any
 
 import pytest
 
 from rtcf import Component, ComponentError, ComponentSpec
+from rtcf._core._clock import SimClock
 from rtcf._core._errors import ConfigurationError
 from rtcf._core._faults import FailurePolicy
 from rtcf._core._ports import FlowStatus
+from rtcf._core._runner import Runner
+from rtcf._core._settings import RunnerSettings
+from rtcf._core._timing import TimingAggregate
+from rtcf._runtime._health import health
+from rtcf._runtime._live_status import LiveStatus
 from rtcf.testing import SILENCE, run_components, run_launch
 
 HZ = 100.0  # 10 ms per iteration
@@ -209,3 +216,40 @@ def test_a_launch_file_gives_the_deadline_and_the_policy(tmp_path: Any) -> None:
     )
     trace = run_launch(str(launch), len(FEED), inputs={"/cmd": FEED})
     assert trace.outputs["/u"] == [1.0] * 5 + [-1.0] * 4 + [2.0] * 3
+
+
+def test_the_watch_tells_a_supervisor_which_input_is_past_its_deadline_now() -> None:
+    runner = Runner(RunnerSettings(frequency=HZ), clock=SimClock(), name="r")
+    runner.load(ComponentSpec("ctrl", Ctrl))
+    fed = [3]  # values in the first 3 iterations only
+
+    def feed() -> None:
+        if runner.state.iteration < fed[0]:
+            slot = runner.components["/ctrl"].inputs["cmd"]._slot
+            slot.value, slot.seq = 1.0, slot.seq + 1
+
+    try:
+        watch = runner.deadlines
+        assert watch.names() == ["/ctrl.cmd"]
+        runner.run(6, feeders=[feed])  # past 25 ms from iteration 5
+        assert (watch.bits[0], watch.misses[0], watch.expired_now()) == (1, 1, ["/ctrl.cmd"])
+        fed[0] = 100
+        runner.run(1, feeders=[feed])
+        assert (watch.bits[0], watch.misses[0], watch.expired_now()) == (0, 1, [])
+    finally:
+        runner.shutdown()
+
+
+def test_diagnostics_name_the_inputs_past_their_deadline_and_warn() -> None:
+    status = LiveStatus(
+        iterations=10, overruns=0, jitter_p999_us=1.0, calc_p999_us=1.0, calc_max_us=1.0,
+        log_records_dropped=0, elapsed_s=0.1, past_deadline=("/base.cmd_vel",),
+        deadline_misses=3,
+    )
+    h = health("/rt_runner", status, TimingAggregate())
+    assert h.warn and "past deadline: /base.cmd_vel" in h.message
+    values = dict(h.values)
+    assert values["inputs past their deadline"] == "/base.cmd_vel"
+    assert values["input deadlines passed"] == "3"
+    quiet = health("/rt_runner", dataclasses.replace(status, past_deadline=()), TimingAggregate())
+    assert not quiet.warn and dict(quiet.values)["inputs past their deadline"] == "none"
