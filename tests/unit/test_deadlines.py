@@ -158,7 +158,7 @@ def test_the_launch_files_deadline_replaces_or_gives_the_components() -> None:
     (event,) = trace.result.deadline_events
     assert event.iteration == 6 and event.deadline == 0.03
     assert trace.components["/ctrl"].cmd.deadline == 0.03
-    with pytest.raises(ConfigurationError, match=r"deadline/nope names no input; its inputs: cmd"):
+    with pytest.raises(ComponentError, match=r"deadline/nope names no input; its inputs: cmd"):
         _run("continue", FEED, nope=0.1)
 
 

@@ -26,8 +26,8 @@ from array import array
 from dataclasses import asdict, dataclass, field
 from typing import TYPE_CHECKING, Any
 
-from ._errors import ComponentError, ConfigurationError
-from ._faults import DEADLINE_CONTINUE, DEADLINE_DEACTIVATE, DEADLINE_STOP, deadline_ns
+from ._errors import ComponentError
+from ._faults import DEADLINE_CONTINUE, DEADLINE_DEACTIVATE, DEADLINE_STOP
 from ._lifecycle import ACTIVE
 from ._log import LogLevel
 
@@ -109,21 +109,11 @@ class DeadlineWatch:
     _watched: tuple[_Track, ...] = ()
 
     def refresh(self) -> bool:
-        """Watch the inputs with a deadline of the components now loaded (before a run);
-        a launch file's ``deadline/NAME`` replaces the component's. True if any."""
+        """Watch the inputs with a deadline of the components now loaded (before a run;
+        a launch file's ``deadline/NAME`` was applied at load). True if any."""
         tracks: dict[int, _Track] = {}
         for entry in self.components.entries.values():
-            given = dict(entry.spec.policy.deadlines)
-            inputs = entry.component.inputs
-            for name in given:
-                if name not in inputs:
-                    raise ConfigurationError(
-                        f"component {entry.spec.full_name!r}: deadline/{name} names no input; "
-                        f"its inputs: {', '.join(sorted(inputs)) or 'none'}"
-                    )
-            for name, port in inputs.items():
-                if name in given:
-                    port._deadline_ns = deadline_ns(given[name], f"input {port.qualified_name!r}")
+            for port in entry.component.inputs.values():
                 if port._deadline_ns <= 0:
                     continue
                 old = self.tracks.get(id(port))

@@ -77,6 +77,17 @@ class FailurePolicy:
                 f"max_restarts must be a whole number >= 0, not {self.max_restarts!r}"
             )
 
+    def apply_deadlines(self, inputs: Mapping[str, Any]) -> None:
+        """Give ``inputs`` (name -> InputPort) the launch file's deadlines."""
+        for name, _ in self.deadlines:
+            if name not in inputs:
+                raise ConfigurationError(
+                    f"deadline/{name} names no input; its inputs: "
+                    f"{', '.join(sorted(inputs)) or 'none'}"
+                )
+        for name, seconds in self.deadlines:
+            inputs[name]._deadline_ns = deadline_ns(seconds, f"input {name!r}")
+
     @classmethod
     def from_params(cls, params: Mapping[str, Any], component: str) -> FailurePolicy:
         """The policy from a launcher's parameters (``on_error``, ``max_restarts``,

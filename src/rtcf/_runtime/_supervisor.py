@@ -338,8 +338,11 @@ class WorkerRunner:
         return data
 
     def introspect(self) -> dict[str, Any]:
-        """The last introspection data, with the current tunable values and log levels."""
-        return self._loaded.introspect()
+        """The last introspection data, with the current tunable values and log levels,
+        and the inputs past their deadline now."""
+        data = self._loaded.introspect()
+        data["past_deadline"] = list(self.past_deadline()[0])
+        return data
 
     # -- tuning while running (any thread) ---------------------------------------
     def set_parameter(self, component: str, name: str, value: Any) -> Any:
