@@ -41,6 +41,7 @@ from ._core._trace import Trace as _Recorder
 from ._launch._files import load_deployment
 
 __all__ = [
+    "SILENCE",
     "ActionTrace",
     "Cancel",
     "Goal",
@@ -52,10 +53,21 @@ __all__ = [
     "run_launch",
 ]
 
+
+class _Silence:
+    def __repr__(self) -> str:
+        return "rtcf.testing.SILENCE"
+
+
+SILENCE: Any = _Silence()
+"""A value to feed that feeds nothing: in that iteration the input's publisher is
+silent (for inputs with a deadline: ``[1.0] * 10 + [SILENCE] * 20 + [2.0]``)."""
+
 InputValues = Any
 """What to feed an input topic: a ``list`` or ``tuple`` is one value per iteration
 (the last one stays once it runs out); a callable is called with the iteration and
-its time in seconds; anything else (a number, a numpy array, a message) is the value
+its time in seconds; :data:`SILENCE` (in a list, or returned) feeds nothing in that
+iteration; anything else (a number, a numpy array, a message) is the value
 of every iteration. Write ``list(array)`` to feed a numpy array value by value."""
 
 _DEFAULT_FREQUENCY = 1000.0  # Hz, when neither ``frequency`` nor ``settings`` says
@@ -378,6 +390,8 @@ def _feeder(
 
     def feed() -> None:  # before the components, at the start of each iteration
         value = values(state.iteration, state.time_ns * 1e-9)
+        if value is SILENCE:
+            return
         for port in ports:  # as a middleware bridge feeds an input nothing here produces
             slot = port._slot
             slot.value = value

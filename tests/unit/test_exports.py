@@ -95,7 +95,8 @@ def test_testing_module_exports_exactly_these() -> None:
     import rtcf.testing
 
     assert sorted(rtcf.testing.__all__) == [
-        "ActionTrace", "Cancel", "Goal", "GoalRecord", "InputValues", "SimClock", "Trace",
+        "ActionTrace", "Cancel", "Goal", "GoalRecord", "InputValues", "SILENCE", "SimClock",
+        "Trace",
         "run_components", "run_launch"
     ]
     public = {n for n in vars(rtcf.testing) if not n.startswith("_")}

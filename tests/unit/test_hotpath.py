@@ -33,7 +33,9 @@ F = FIXED_COLUMNS  # the first component's column
 
 def _ports(m: ModuleType) -> tuple[Any, Any]:
     """An output and an input of the module, wired to one slot."""
-    m.set_flow_status(FlowStatus.NO_DATA, FlowStatus.OLD_DATA, FlowStatus.NEW_DATA)
+    m.set_flow_status(
+        FlowStatus.NO_DATA, FlowStatus.OLD_DATA, FlowStatus.NEW_DATA, FlowStatus.EXPIRED
+    )
     st = m.LoopState(100.0)
     out = m.OutputPort("/c", "out", float, st)
     inp = m.InputPort("/d", "in", float)
@@ -82,6 +84,23 @@ def test_write_read_status_and_iteration(m: ModuleType) -> None:
     out.write(None)  # a write of None is a write
     assert inp.status is FlowStatus.NEW_DATA and inp.read() is None
     assert out._slot.seq == 2 and inp._seen == 2
+
+
+@pytest.mark.parametrize("m", MODULES)
+def test_an_input_past_its_deadline_says_expired_until_the_watch_clears_it(
+    m: ModuleType,
+) -> None:
+    out, inp = _ports(m)
+    assert inp.deadline is None and inp._deadline_ns == 0 and not inp._expired
+    inp._deadline_ns = 250_000_000
+    assert inp.deadline == 0.25
+    inp._expired = True  # nothing yet: NO_DATA says more than EXPIRED
+    assert inp.status is FlowStatus.NO_DATA
+    out.write(1.0)  # past its deadline, even unread: EXPIRED before NEW_DATA
+    assert inp.status is FlowStatus.EXPIRED and inp.has_new_data
+    assert inp.read() == 1.0 and inp.status is FlowStatus.EXPIRED
+    inp._expired = False
+    assert inp.status is FlowStatus.OLD_DATA
 
 
 @pytest.mark.parametrize("m", MODULES)

@@ -110,3 +110,19 @@ def test_mapping_says_why_nothing_is_mapped() -> None:
         "no port is mapped to a topic "
         "(no topic matches ros_mapping_whitelist '/other/.*' and not the blacklist)"
     )
+
+
+def test_an_inputs_deadline_and_whether_it_is_past_it_now() -> None:
+    from rtcf._core._faults import FailurePolicy
+
+    r = Runner(RunnerSettings(), clock=SimClock())
+    policy = FailurePolicy(deadlines=(("x", 0.25),))  # the launch file's
+    r.load(ComponentSpec("sink", Sink, namespace="/ns", policy=policy))
+    d = r.introspect()
+    assert "    x -> /ns/x  [builtins.float]  deadline 0.25 s" in render(
+        "component_info", d, "/ns/sink"
+    )
+    d["past_deadline"] = ["/ns/sink.x"]  # as a supervisor tells it
+    assert "    x -> /ns/x  [builtins.float]  deadline 0.25 s  PAST ITS DEADLINE NOW" in render(
+        "component_info", d, "/ns/sink"
+    )

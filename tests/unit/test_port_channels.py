@@ -170,3 +170,16 @@ def test_a_fed_float_array_is_a_copy():
         feeder()
         assert first.tolist() == [1.0, 2.0]  # not overwritten by the next message
         assert inp.read().tolist() == [3.0]
+
+
+def test_a_mapped_input_carries_the_shortest_deadline_of_its_readers():
+    out, inp = _ports()
+    other = InputPort("/c", "in", float)
+    other.topic = "/ros/in"
+    inp._deadline_ns, other._deadline_ns = 500_000_000, 200_000_000
+    ports = {p.topic: p for p in mapped_ports([out], [inp, other])}
+    assert ports["/ros/in"].deadline == 0.2 and ports["/ros/out"].deadline == 0.0
+    other._deadline_ns = 0  # no deadline: the other reader's counts
+    assert {p.topic: p.deadline for p in mapped_ports([out], [inp, other])} == {
+        "/ros/out": 0.0, "/ros/in": 0.5
+    }

@@ -99,9 +99,10 @@ def _component_info(data: dict[str, Any], name: str) -> str:
         lines.append(f"  launched by: {c['launcher']}")
     for kind in ("inputs", "outputs"):
         lines.append(f"  {kind}:")
-        lines += [f"    {p['name']} -> {p['topic']}  [{p['type']}]" for p in c[kind]] or [
-            "    (none)"
-        ]
+        lines += [
+            f"    {p['name']} -> {p['topic']}  [{p['type']}]" + _deadline(data, c, p)
+            for p in c[kind]
+        ] or ["    (none)"]
     if c.get("parameters"):
         lines.append("  parameters (read at configure):")
         lines += [f"    {k}: {v!r}" for k, v in sorted(c["parameters"].items())]
@@ -124,6 +125,14 @@ def _component_info(data: dict[str, Any], name: str) -> str:
         except ValueError:
             lines.append(f"  log level: {level}")
     return "\n".join(lines)
+
+
+def _deadline(data: dict[str, Any], component: dict[str, Any], port: dict[str, Any]) -> str:
+    """An input's deadline, and whether it is past it now."""
+    if port.get("deadline") is None:
+        return ""
+    past = f"{component['name']}.{port['name']}" in data.get("past_deadline", ())
+    return f"  deadline {port['deadline']:g} s" + ("  PAST ITS DEADLINE NOW" if past else "")
 
 
 def _connection_info(data: dict[str, Any], topic: str) -> str:

@@ -312,6 +312,14 @@ def cmd_launch(ns: argparse.Namespace) -> int:
         if result is not None:
             for fault in result.faults:
                 _say(f"fault: {fault.describe()}")
+            for port, d in result.deadlines.items():
+                if d["expired"]:
+                    _say(
+                        f"deadline: input {port!r} ({d['topic']}) passed its deadline of "
+                        f"{d['deadline']:g} s {d['expired']} time{'s' * (d['expired'] != 1)}, "
+                        f"{d['expired_seconds']:.3f} s "
+                        "in all" + (" (still past it at the end)" if d["past_deadline_now"] else "")
+                    )
             if result.stopped_by == "abort":
                 done = ", ".join(o.describe() for o in result.safe_stops) or "none defined"
                 _say(f"stopped abnormally; safe stops: {done}")
@@ -463,6 +471,8 @@ class _StatusLine:
         )
         if st.log_records_dropped:
             text += f"  {st.log_records_dropped} log records dropped"
+        if st.past_deadline:
+            text += f"  past deadline: {', '.join(st.past_deadline)}"
         sys.stderr.write("\r" + text + "\x1b[K")
         sys.stderr.flush()
         self.shown = True

@@ -113,6 +113,9 @@ def timing_document(result: RunResult, settings: RunnerSettings, wall_s: float) 
         doc["histograms_ns"] = result.aggregate.histograms()
     if result.inputs:  # mapped inputs: arrived, read, replaced by a newer one unread
         doc["inputs"] = result.inputs
+    if result.deadlines:  # inputs with a deadline: how many times past it, how long in all
+        doc["deadlines"] = result.deadlines
+        doc["deadline_events"] = [e.to_dict() for e in result.deadline_events]
     if len(result.lanes) > 1:
         doc["lanes"] = {
             name: lane_document(lane, settings, keep) for name, lane in result.lanes.items()

@@ -36,8 +36,9 @@
 
 #include "_compiled.h"
 
-/* FlowStatus's members (NO_DATA, OLD_DATA, NEW_DATA): rtcf._core._ports hands them in */
-PyObject *flow_status[3] = {NULL, NULL, NULL};
+/* FlowStatus's members (NO_DATA, OLD_DATA, NEW_DATA, EXPIRED): rtcf._core._ports hands
+ * them in */
+PyObject *flow_status[4] = {NULL, NULL, NULL, NULL};
 PyObject *str_plans = NULL, *str_compiled_plans = NULL;
 PyObject *str_inputs = NULL, *str_outputs = NULL;
 
@@ -71,11 +72,12 @@ rtcf_gc_dealloc(PyObject *self)
 static PyObject *
 set_flow_status(PyObject *module, PyObject *const *args, Py_ssize_t nargs)
 {
-    if (nargs != 3) {
-        PyErr_SetString(PyExc_TypeError, "set_flow_status(no_data, old_data, new_data)");
+    if (nargs != 4) {
+        PyErr_SetString(PyExc_TypeError,
+                        "set_flow_status(no_data, old_data, new_data, expired)");
         return NULL;
     }
-    for (int k = 0; k < 3; k++)
+    for (int k = 0; k < 4; k++)
         Py_XSETREF(flow_status[k], Py_NewRef(args[k]));
     Py_RETURN_NONE;
 }
@@ -107,7 +109,7 @@ static PyMethodDef module_methods[] = {
      "ns_per_cycle()\n--\n\nNanoseconds per tick of the CPU's cycle counter, measured "
      "over 2 ms; 0.0 where rtcf does not read one."},
     {"set_flow_status", (PyCFunction)(void (*)(void))set_flow_status, METH_FASTCALL,
-     "set_flow_status(no_data, old_data, new_data)\n--\n\nWhat a port's status returns."},
+     "set_flow_status(no_data, old_data, new_data, expired)\n--\n\nWhat a port's status returns."},
     {NULL},
 };
 

@@ -93,6 +93,8 @@ typedef struct {
     PyObject *type;         /* the value type */
     PyObject *topic;        /* resolved topic name, set when the runner wires the graph */
     PyObject *producer;     /* an input's: the OutputPort writing its topic, or NULL */
+    long long deadline_ns;  /* an input's deadline (0: none); the loop's watch reads it */
+    char expired;           /* an input's: past its deadline (the watch sets and clears it) */
 } PortObject;
 
 /* ---- Plans ------------------------------------------------------------------------ */
@@ -160,7 +162,7 @@ RTCF_INTERNAL extern PyTypeObject WordTapType, HandoverType;
 
 /* the module's state (_compiled.c): FlowStatus's members (rtcf._core._ports hands them
  * in), and the names the calculation and the plans look up */
-RTCF_INTERNAL extern PyObject *flow_status[3];
+RTCF_INTERNAL extern PyObject *flow_status[4];
 RTCF_INTERNAL extern PyObject *str_plans, *str_compiled_plans, *str_inputs, *str_outputs;
 
 /* obj's buffer as writable int64 words into view; 0, or -1 with an exception */

@@ -115,10 +115,18 @@ static PyObject *
 InputPort_status(PortObject *p, void *closure)
 {
     long long seq = p->slot->seq;
-    int k = seq == 0 ? 0 : (seq != p->seen ? 2 : 1);
+    int k = seq == 0 ? 0 : (p->expired ? 3 : (seq != p->seen ? 2 : 1));
     if (flow_status[k] == NULL)
         return PyLong_FromLong(k);
     return Py_NewRef(flow_status[k]);
+}
+
+static PyObject *
+InputPort_deadline(PortObject *p, void *closure)
+{
+    if (p->deadline_ns <= 0)
+        Py_RETURN_NONE;
+    return PyFloat_FromDouble((double)p->deadline_ns / 1e9);
 }
 
 static PyObject *
@@ -302,6 +310,8 @@ static PyMemberDef Port_members[] = {
     {"topic", T_OBJECT_EX, offsetof(PortObject, topic), 0,
      "The resolved topic name (set when the runner wires the graph)."},
     {"_seen", T_LONGLONG, offsetof(PortObject, seen), 0, NULL},
+    {"_deadline_ns", T_LONGLONG, offsetof(PortObject, deadline_ns), 0, NULL},
+    {"_expired", T_BOOL, offsetof(PortObject, expired), 0, NULL},
     {NULL},
 };
 
@@ -351,7 +361,11 @@ static PyMethodDef InputPort_methods[] = {
 
 static PyGetSetDef InputPort_getset[] = {
     {"status", (getter)InputPort_status, NULL,
-     "NEW_DATA if written since this port's last read, OLD_DATA if not, or NO_DATA.", NULL},
+     "EXPIRED if the value is older than the port's deadline, else NEW_DATA if written "
+     "since this port's last read, OLD_DATA if not, or NO_DATA.", NULL},
+    {"deadline", (getter)InputPort_deadline, NULL,
+     "The deadline in seconds (add_input(..., deadline=) or the launch file), or None.",
+     NULL},
     {"has_new_data", (getter)InputPort_has_new_data, NULL,
      "True if the value was written since this port's last read().", NULL},
     {"iteration", (getter)InputPort_iteration, NULL,

@@ -27,6 +27,7 @@ from typing import Any, TypeVar
 from ._action_protocol import ActionEvent, ActionRequest
 from ._actions import ActionServer
 from ._errors import ComponentError
+from ._faults import deadline_ns
 from ._log import ComponentLogger, LogRing, RecordSink
 from ._loop_state import LoopState
 from ._names import Resolver, join, validate_name
@@ -102,9 +103,22 @@ class Component:
         return None
 
     # -- ports ----------------------------------------------------------------
-    def add_input(self, name: str, type_: type[T]) -> InputPort[T]:
-        """Declare an input port (in ``configure``); its topic is ``name`` resolved."""
+    def add_input(
+        self, name: str, type_: type[T], *, deadline: float | None = None
+    ) -> InputPort[T]:
+        """Declare an input port (in ``configure``); its topic is ``name`` resolved.
+
+        ``deadline`` (seconds): when the newest value is older than this, the port's
+        ``status`` is ``FlowStatus.EXPIRED`` and the component's ``on_deadline`` policy
+        applies (docs/runner.md, "Input deadlines"); a launch file's ``deadline/NAME``
+        overrides it.
+        """
         port: InputPort[T] = InputPort(self.full_name, name, type_)
+        if deadline is not None:
+            where = f"input {name!r}"
+            port._deadline_ns = deadline_ns(deadline, where)
+        # configured again: the port of the first configure, with its deadline (a launch
+        # file's may have replaced the component's)
         return self._rtcf_add_port(port, self._rtcf_inputs)
 
     def add_output(self, name: str, type_: type[T]) -> OutputPort[T]:

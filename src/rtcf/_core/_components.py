@@ -184,6 +184,10 @@ class Components:
         self.notices.drain()
         if ok is False:
             raise fail("configure() returned False")
+        try:  # the launch file's deadline/NAME replaces the component's
+            spec.policy.apply_deadlines(component._rtcf_inputs)
+        except ConfigurationError as exc:
+            raise fail(exc.message) from None
         component._rtcf_configured = True
         component.params.sealed = True
         self.entries[full] = Loaded(spec, component, ignore)
@@ -358,7 +362,10 @@ class Components:
 
 
 def _port_info(port: Any) -> dict[str, Any]:
-    return {"name": port.name, "topic": port.topic, "type": type_name(port.type)}
+    info = {"name": port.name, "topic": port.topic, "type": type_name(port.type)}
+    if getattr(port, "deadline", None) is not None:  # an input's, seconds
+        info["deadline"] = port.deadline
+    return info
 
 
 def _info(component: str, port: Any) -> PortInfo:

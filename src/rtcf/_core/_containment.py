@@ -63,6 +63,8 @@ class Containment:
         self.faults: list[Fault] = []  # contained failures of this runner's life
         self.on_fault: Callable[[Fault], None] | None = None  # a worker counts them
         self.safe_stops: list[SafeStopOutcome] = []  # of the last safe stop
+        # components an input's deadline took out, and what went with each
+        self._deadline_taken: dict[str, list[str]] = {}
 
     def contain(self, failure: UpdateFailure) -> None:
         """Apply the failed component's policy; raise ComponentError if the loop ends."""
@@ -140,10 +142,35 @@ class Containment:
                 return False
         return True
 
+    def take_out_for_deadline(self, name: str, iteration: int, why: str) -> str:
+        """``on_deadline: deactivate``: as ``on_error: deactivate``, in the iteration that
+        begins (called between the feeders and the first update). Returns the fallback
+        that took over, or ""."""
+        policy = self._components.entries[name].spec.policy
+        fallback, taken = self._take_out(name, iteration, why, policy, "", record=False)
+        self._deadline_taken[name] = taken
+        return fallback
+
+    def bring_back(self, name: str, fallback: str) -> None:
+        """An input of ``name`` that passed its deadline has a value again: its fallback
+        stands by again, and what its deadline took out comes back as ``activate``
+        brings it back (in the execution order)."""
+        loaded = self._components.entries
+        if fallback in loaded and loaded[fallback].state == ACTIVE:
+            self._transitions.change(fallback, "deactivate")
+        order = self._topology.graph.order
+        for n in sorted(self._deadline_taken.pop(name, [name]), key=order.index):
+            if n in loaded and loaded[n].state == INACTIVE:
+                loaded[n].autostart = True
+                self._transitions.change(n, "activate")
+        self._notices.drain()
+
     def _take_out(
         self, name: str, iteration: int, error: str, policy: FailurePolicy, cause: str,
-    ) -> None:
-        """Take ``name`` and what reads its outputs out of the schedule; safe-stop them."""
+        record: bool = True,
+    ) -> tuple[str, list[str]]:
+        """Take ``name`` and what reads its outputs out of the schedule; safe-stop them.
+        Returns the fallback that took over ("" if none) and what was taken out."""
         loaded = self._components.entries
         graph = self._topology.graph
         edges = [(e.producer.component, e.consumer.component) for e in graph.edges]
@@ -166,14 +193,21 @@ class Containment:
                 taken.append(n)
         self._schedule.replan()
         for n in taken:  # as a deactivation (safe_stop runs, not stop)
-            why = f"on_error: deactivate, after {name!r} failed: {error}"
+            why = (
+                f"on_error: deactivate, after {name!r} failed: {error}" if record
+                else f"on_deadline: deactivate: {error}"
+            )
             self._transitions.announce(
                 n, TransitionOutcome(DEACTIVATE, ACTIVE, INACTIVE, SUCCESS, "", why)
             )
         self._run_safe_stops(sorted(victims, key=order.index, reverse=True))
         if fallback and not self._transitions.change(fallback, "activate").ok:
             fallback = ""
-        self._record(Fault(name, iteration, error, "deactivated", victims, fallback, cause))
+        if record:
+            self._record(Fault(name, iteration, error, "deactivated", victims, fallback, cause))
+        else:
+            self._notices.log(LogLevel.WARNING, name, error)
+        return fallback, taken
 
     def _record(self, fault: Fault) -> None:
         self.faults.append(fault)

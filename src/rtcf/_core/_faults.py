@@ -21,6 +21,10 @@ the order runs again from the next iteration, on the same grid) and has no timin
 row. ``SystemExit`` and ``KeyboardInterrupt`` raised by an update always stop the
 loop.
 
+``on_deadline`` (``continue``, ``deactivate`` or ``stop``) is what the loop does when
+one of its inputs passes its deadline (``deadline/NAME``, seconds; see
+:mod:`rtcf._core._deadlines`); ``deactivate`` and ``stop`` act as for ``on_error``.
+
 Watchdogs (runner parameters) end the loop through the same safe-stop path:
 ``max_consecutive_overruns`` and ``max_overruns_per_second`` (0: off), and for a lane on
 logical execution time ``max_let_overruns`` (windows it did not finish in a run).
@@ -28,6 +32,7 @@ logical execution time ``max_let_overruns`` (windows it did not finish in a run)
 
 from __future__ import annotations
 
+import math
 from collections.abc import Iterable, Mapping
 from dataclasses import asdict, dataclass, field
 from typing import Any
@@ -41,6 +46,9 @@ POLICIES = (STOP, DEACTIVATE, RESTART)
 DEFAULT_MAX_RESTARTS = 3
 # what a Fault contained: an update that raised, or a LET lane's windows that overran
 RAISED, LET_OVERRUNS = "raised", "let_overruns"
+# on_deadline: an input past its deadline (rtcf._core._deadlines)
+DEADLINE_CONTINUE, DEADLINE_DEACTIVATE, DEADLINE_STOP = "continue", "deactivate", "stop"
+DEADLINE_POLICIES = (DEADLINE_CONTINUE, DEADLINE_DEACTIVATE, DEADLINE_STOP)
 
 
 @dataclass(frozen=True)
@@ -50,21 +58,41 @@ class FailurePolicy:
     on_error: str = STOP
     max_restarts: int = DEFAULT_MAX_RESTARTS
     fallback: str = ""  # full name of the component that takes over, or ""
+    # an input past its deadline (rtcf._core._deadlines), and the launch file's deadlines
+    on_deadline: str = DEADLINE_CONTINUE
+    deadlines: tuple[tuple[str, float], ...] = ()  # (input name, seconds)
 
     def __post_init__(self) -> None:
         if self.on_error not in POLICIES:
             raise ConfigurationError(
                 f"on_error must be one of {', '.join(POLICIES)}, not {self.on_error!r}"
             )
+        if self.on_deadline not in DEADLINE_POLICIES:
+            raise ConfigurationError(
+                f"on_deadline must be one of {', '.join(DEADLINE_POLICIES)}, "
+                f"not {self.on_deadline!r}"
+            )
         if not isinstance(self.max_restarts, int) or self.max_restarts < 0:
             raise ConfigurationError(
                 f"max_restarts must be a whole number >= 0, not {self.max_restarts!r}"
             )
 
+    def apply_deadlines(self, inputs: Mapping[str, Any]) -> None:
+        """Give ``inputs`` (name -> InputPort) the launch file's deadlines."""
+        for name, _ in self.deadlines:
+            if name not in inputs:
+                raise ConfigurationError(
+                    f"deadline/{name} names no input; its inputs: "
+                    f"{', '.join(sorted(inputs)) or 'none'}"
+                )
+        for name, seconds in self.deadlines:
+            inputs[name]._deadline_ns = deadline_ns(seconds, f"input {name!r}")
+
     @classmethod
     def from_params(cls, params: Mapping[str, Any], component: str) -> FailurePolicy:
         """The policy from a launcher's parameters (``on_error``, ``max_restarts``,
-        ``fallback``); the error names the component."""
+        ``fallback``, ``on_deadline``, ``deadline/NAME``); the error names the
+        component."""
         fallback = str(params.get("fallback", "") or "")
         if fallback and not fallback.startswith("/"):  # relative to the component's namespace
             namespace = component.rpartition("/")[0]
@@ -74,9 +102,56 @@ class FailurePolicy:
                 on_error=str(params.get("on_error", STOP)).strip().lower(),
                 max_restarts=_whole(params.get("max_restarts", DEFAULT_MAX_RESTARTS)),
                 fallback=fallback,
+                on_deadline=str(params.get("on_deadline", DEADLINE_CONTINUE)).strip().lower(),
+                deadlines=_deadlines(params),
             )
         except ConfigurationError as exc:
             raise ConfigurationError(f"component {component!r}: {exc.message}") from None
+
+
+def deadline_ns(seconds: Any, where: str) -> int:
+    """A deadline in seconds as nanoseconds, or ConfigurationError naming ``where``."""
+    ok = isinstance(seconds, (int, float)) and not isinstance(seconds, bool)
+    if isinstance(seconds, str):
+        try:
+            seconds, ok = float(seconds), True
+        except ValueError:
+            ok = False
+    if not ok or not math.isfinite(seconds) or seconds <= 0:
+        raise ConfigurationError(
+            f"{where}: deadline {seconds!r} must be a positive number of seconds"
+        )
+    return max(1, round(float(seconds) * 1e9))
+
+
+def _deadlines(params: Mapping[str, Any]) -> tuple[tuple[str, float], ...]:
+    """``deadline/NAME`` parameters: a ``deadline`` subtree (launch XML's ``<param
+    name="deadline/cmd_vel" .../>``), or flat keys (ROS 2's ``deadline.cmd_vel``)."""
+    found: dict[str, Any] = {}
+    tree = params.get("deadline")
+    if isinstance(tree, Mapping):
+        found.update(tree)
+    elif tree is not None:
+        raise ConfigurationError(
+            f"deadline is {tree!r}; name the input: deadline/NAME (seconds)"
+        )
+    for key, value in params.items():
+        for prefix in ("deadline/", "deadline."):
+            if isinstance(key, str) and key.startswith(prefix):
+                found[key[len(prefix):]] = value
+    out = []
+    for name, value in sorted(found.items()):
+        ok = isinstance(value, (int, float, str)) and not isinstance(value, bool)
+        try:
+            seconds = float(value) if ok else math.nan
+        except ValueError:
+            seconds = math.nan
+        if not math.isfinite(seconds) or seconds <= 0:
+            raise ConfigurationError(
+                f"deadline/{name} is {value!r}; it must be a positive number of seconds"
+            )
+        out.append((str(name), seconds))
+    return tuple(out)
 
 
 def _whole(value: Any) -> int:

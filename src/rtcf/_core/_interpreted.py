@@ -14,12 +14,12 @@ from typing import Any, Generic, TypeVar
 
 T = TypeVar("T")
 
-_flow_status: list[Any] = [0, 1, 2]
+_flow_status: list[Any] = [0, 1, 2, 3]
 
 
-def set_flow_status(no_data: Any, old_data: Any, new_data: Any) -> None:
+def set_flow_status(no_data: Any, old_data: Any, new_data: Any, expired: Any) -> None:
     """What a port's status returns (rtcf._core._ports.FlowStatus's members)."""
-    _flow_status[:] = [no_data, old_data, new_data]
+    _flow_status[:] = [no_data, old_data, new_data, expired]
 
 
 class Slot:
@@ -60,7 +60,10 @@ _NO_LOOP = _NoLoop()
 class Port(Generic[T]):
     """Common part of inputs and outputs."""
 
-    __slots__ = ("_loop", "_seen", "_slot", "_tap", "component", "name", "topic", "type")
+    __slots__ = (
+        "_deadline_ns", "_expired", "_loop", "_seen", "_slot", "_tap", "component", "name",
+        "topic", "type",
+    )
 
     def __init__(self, component: str, name: str, type_: type[T]) -> None:
         self.component = component  # full name of the owning component
@@ -70,6 +73,8 @@ class Port(Generic[T]):
         self._slot = Slot()
         self._loop: Any = _NO_LOOP  # the loop state a write reads (never None)
         self._seen = 0  # an input's: the slot's seq at its last read
+        self._deadline_ns = 0  # an input's deadline (0: none); the loop's watch reads it
+        self._expired = False  # an input's: past its deadline (the watch sets and clears it)
         # an output's: called with every written value while it is mapped or recorded
         self._tap: Callable[[Any], None] | None = None
 
@@ -130,11 +135,19 @@ class InputPort(Port[T]):
 
     @property
     def status(self) -> Any:
-        """NEW_DATA if written since this port's last read, OLD_DATA if not, or NO_DATA."""
+        """EXPIRED if the value is older than the port's deadline, else NEW_DATA if written
+        since this port's last read, OLD_DATA if not, or NO_DATA."""
         seq = self._slot.seq
         if seq == 0:
             return _flow_status[0]
+        if self._expired:
+            return _flow_status[3]
         return _flow_status[2] if seq != self._seen else _flow_status[1]
+
+    @property
+    def deadline(self) -> float | None:
+        """The deadline in seconds (add_input(..., deadline=) or the launch file), or None."""
+        return self._deadline_ns / 1e9 if self._deadline_ns > 0 else None
 
     @property
     def iteration(self) -> int:

@@ -16,6 +16,7 @@ from typing import Any
 
 from ._clock import Clock
 from ._containment import Containment
+from ._deadlines import DeadlineEvent, DeadlineWatch
 from ._errors import ConfigurationError, LoopError
 from ._executor import ABORT, StopFlag, UpdateFailure
 from ._faults import Fault, SafeStopOutcome, WatchdogTripped
@@ -52,6 +53,10 @@ class RunResult:
     # inputs mapped to the middleware (by a supervisor): per topic, the messages that
     # arrived, those the loop read, and those a newer one replaced before it read them
     inputs: dict[str, dict[str, int]] = field(default_factory=dict)
+    # inputs with a deadline: per input (component.name), how many times it passed it
+    # and for how long in all (this runner's life); and each time, in this run
+    deadlines: dict[str, dict[str, Any]] = field(default_factory=dict)
+    deadline_events: list[DeadlineEvent] = field(default_factory=list)
 
 
 class Loop:
@@ -69,6 +74,7 @@ class Loop:
         schedule: Schedule,
         transitions: Transitions,
         containment: Containment,
+        deadlines: DeadlineWatch,
         stop_flag: StopFlag | None,
         timing_capacity: int,
     ) -> None:
@@ -81,6 +87,7 @@ class Loop:
         self._schedule = schedule
         self._transitions = transitions
         self._containment = containment
+        self._deadlines = deadlines
         # a worker's flag is a shared-memory word the supervisor sets and clears
         self._owns_stop_flag = stop_flag is None
         self.stop_flag = stop_flag if stop_flag is not None else StopFlag()
@@ -127,7 +134,10 @@ class Loop:
             aggregate = TimingAggregate()
         writer = TimingWriter(labels, timing_ring)
         executor.timing = writer
-        executor.feeders = tuple(feeders)
+        watch = self._deadlines
+        events_before = len(watch.events)
+        # last: after the middleware's messages, before the first update
+        executor.feeders = tuple(feeders) + ((watch.check,) if watch.refresh() else ())
         executor.ros_offset_ns = ros_offset_ns
         executor.idle = self._idle_hook(
             on_iteration, drain_logs_every_iteration, aggregate, timing_ring
@@ -188,6 +198,8 @@ class Loop:
             aggregate=aggregate,
             faults=containment.faults[faults_before:],
             safe_stops=list(containment.safe_stops),
+            deadlines=watch.summary(),
+            deadline_events=watch.events[events_before:],
         )
 
     def _idle_hook(

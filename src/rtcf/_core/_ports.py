@@ -22,11 +22,16 @@ __all__ = ["FlowStatus", "InputPort", "OutputPort", "Port", "Slot"]
 
 
 class FlowStatus(enum.IntEnum):
-    """What an input holds, as OROCOS tells it: nothing yet, an old value, a new one."""
+    """What an input holds, as OROCOS tells it: nothing yet, an old value, a new one;
+    and, for an input with a deadline, a value older than it (``EXPIRED``: the
+    publisher went silent; the loop's deadline policy applies, docs/runner.md)."""
 
     NO_DATA = 0
     OLD_DATA = 1
     NEW_DATA = 2
+    EXPIRED = 3
 
 
-set_flow_status(FlowStatus.NO_DATA, FlowStatus.OLD_DATA, FlowStatus.NEW_DATA)
+set_flow_status(
+    FlowStatus.NO_DATA, FlowStatus.OLD_DATA, FlowStatus.NEW_DATA, FlowStatus.EXPIRED
+)

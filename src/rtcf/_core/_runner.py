@@ -28,6 +28,7 @@ from ._clock import Clock, MonotonicClock
 from ._component import Component
 from ._components import Components, ComponentSpec
 from ._containment import Containment
+from ._deadlines import DeadlineWatch
 from ._errors import ComponentError, RtcfError
 from ._executor import StopFlag
 from ._faults import Fault, SafeStopOutcome
@@ -102,6 +103,10 @@ class Runner:
             self.state,
             self._notices,
         )
+        # inputs with a deadline, watched at each iteration boundary (docs/runner.md)
+        self.deadlines = DeadlineWatch(
+            self.state, self._components, self._containment, self._notices
+        )
         self._loop = Loop(
             name,
             self.settings,
@@ -112,6 +117,7 @@ class Runner:
             schedule=self._schedule,
             transitions=self._transitions,
             containment=self._containment,
+            deadlines=self.deadlines,
             stop_flag=stop_flag,
             timing_capacity=timing_capacity,
         )

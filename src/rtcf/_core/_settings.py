@@ -33,6 +33,9 @@ class RunnerSettings:
     names that choose the ports mapped to middleware topics.
     ``ros_qos_depth``/``ros_qos_reliability``/``ros_qos_durability``: the QoS of the
     mapped topics (ROS 1 uses the depth as queue_size and transient_local as latch).
+    ``ros_qos_deadline``: ROS 2 mapped inputs with a deadline also request it as their
+    QoS ``deadline`` and liveliness lease (their publishers must offer as much, or DDS
+    does not connect them).
     ``iteration_info``: publish ``~/iteration_info`` (one message per iteration).
     ``action_max_goal_bytes``: the largest goal (its CDR bytes) a mapped action takes;
     a larger one is rejected.
@@ -73,6 +76,7 @@ class RunnerSettings:
     ros_qos_depth: int = 10
     ros_qos_reliability: str = "reliable"
     ros_qos_durability: str = "volatile"
+    ros_qos_deadline: bool = False
     iteration_info: bool = True
     action_max_goal_bytes: int = 256 * 1024  # a 100-point 7-joint FollowJointTrajectory: ~20 KiB
     controller_manager: str = "controller_manager"
@@ -257,6 +261,7 @@ _CONVERTERS = {
     "ros_qos_depth": _to_int,
     "ros_qos_reliability": _to_str,
     "ros_qos_durability": _to_str,
+    "ros_qos_deadline": _to_bool,
     "iteration_info": _to_bool,
     "action_max_goal_bytes": _to_int,
     "controller_manager": _to_str,
@@ -285,6 +290,7 @@ _EXPECTED = {
     "ros_qos_depth": "an integer",
     "ros_qos_reliability": "reliable or best_effort",
     "ros_qos_durability": "volatile or transient_local",
+    "ros_qos_deadline": "true or false",
     "iteration_info": "true or false",
     "action_max_goal_bytes": "an integer",
     "controller_manager": "a node name, or '' for none",
@@ -315,6 +321,7 @@ _MEANING = {
     "ros_qos_depth": "QoS depth of the mapped topics",
     "ros_qos_reliability": "reliable or best_effort",
     "ros_qos_durability": "volatile or transient_local",
+    "ros_qos_deadline": "ROS 2 inputs with a deadline request it as QoS deadline and lease",
     "iteration_info": "publish ~/iteration_info, one message per iteration",
     "action_max_goal_bytes": "largest goal (CDR bytes) a mapped action takes",
     "controller_manager": "ROS 2: where list_controllers/switch_controller are served",

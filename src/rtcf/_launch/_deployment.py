@@ -37,6 +37,8 @@ LAUNCHER_PARAMS = (
     "on_error",
     "max_restarts",
     "fallback",
+    "on_deadline",
+    "deadline",
     "rate",
     "every",
     "phase",

@@ -50,6 +50,7 @@ from ._actions import ActionBridge
 from ._controller_manager import serve_controller_manager
 from ._face import ComponentFace, read_only, ros_logger_name, ros_value
 from ._inputs import DirectInputs
+from ._liveness import InputEvents, input_qos
 
 if TYPE_CHECKING:
     from .._runtime._supervisor import LiveStatus, WorkerRunner
@@ -206,6 +207,9 @@ class Ros2Bridge:
         self._publishers: list[Any] = []
         self._faces: dict[str, ComponentFace] = {}  # a node per component
         self._qos: Any = 10
+        # mapped inputs with a deadline: DDS's events about their publishers
+        self._events = InputEvents(self.node)
+        self._qos_deadline = False  # the runner's ros_qos_deadline
         self._info_pub: Any = None
         self._info_prefix = b""
         self._use_sim_time = False
@@ -267,6 +271,8 @@ class Ros2Bridge:
             else DurabilityPolicy.VOLATILE,
         )
         self._use_sim_time = settings.use_sim_time
+        self._qos_deadline = settings.ros_qos_deadline
+        self._events.log = runner.log_sink
         if self.mode == "timed":
             self._publish_priority = max(1, settings.priority - 10)
             if self._direct is None:
@@ -333,6 +339,13 @@ class Ros2Bridge:
                     decoder = _cdr_decoder(port.kind, cls) if cdr else None
                     raw = port.kind == "ros2" or decoder is not None
                     feed = self._feeder(port, channel, decoder)
+                    if port.deadline > 0:  # rclpy's executor: its QoS events too
+                        self._subscriptions.append(self.node.create_subscription(
+                            cls, port.topic, feed,
+                            input_qos(self._qos, port.deadline, self._qos_deadline),
+                            raw=raw, event_callbacks=self._events.callbacks(port.topic),
+                        ))
+                        continue
                     if self._direct is not None and raw:  # taken by a thread of its own
                         self._direct.add(cls, port.topic, self._qos, feed)
                         continue
@@ -371,6 +384,8 @@ class Ros2Bridge:
         from diagnostic_msgs import msg as diagnostic
 
         h = health(runner, status, aggregate)
+        for topic, counts in self._events.summary().items():
+            h.values += [(f"{topic}: {k.replace('_', ' ')}", str(n)) for k, n in counts.items()]
         array = diagnostic_array(h, self.node.get_fully_qualified_name(), diagnostic)
         array.header.stamp = self.node.get_clock().now().to_msg()
         self._diagnostics.publish(array)

@@ -36,6 +36,8 @@ def health(runner: str, status: LiveStatus, aggregate: TimingAggregate) -> Healt
         ("timing rows dropped", text(aggregate.dropped)),
         ("component faults contained", text(status.faults)),
         ("loop starts", text(status.starts)),
+        ("inputs past their deadline", ", ".join(status.past_deadline) or "none"),
+        ("input deadlines passed", text(status.deadline_misses)),
     ]
     values.append(("access", status.access or "open: any request on its domain"))
     for label, stats in (("jitter", summary.jitter_us), ("calc", summary.calc_us)):
@@ -49,11 +51,16 @@ def health(runner: str, status: LiveStatus, aggregate: TimingAggregate) -> Healt
     return Health(
         warn=bool(
             status.overruns or status.log_records_dropped or aggregate.dropped or status.faults
+            or status.past_deadline
         ),
         name=f"rtcf: {runner}",
         message=(
             f"{status.iterations} iterations, {status.overruns} overruns, "
             + (f"{status.faults} faults contained, " if status.faults else "")
+            + (
+                f"past deadline: {', '.join(status.past_deadline)}, "
+                if status.past_deadline else ""
+            )
             + f"jitter p99.9 {status.jitter_p999_us:.1f} us, "
             + f"calc p99.9 {status.calc_p999_us:.1f} us"
         ),

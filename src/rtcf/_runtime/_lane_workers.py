@@ -399,6 +399,8 @@ class LaneWorkers(Generic[W]):
                 main.lanes[name]["placement"] = f"pid {main_worker.pid}, {where} (the runner's)"
                 continue
             main.faults += result.faults
+            main.deadlines.update(result.deadlines)
+            main.deadline_events += result.deadline_events
             main.safe_stops += result.safe_stops
             if result.stopped_by == "abort" and main.stopped_by != "abort":
                 main.stopped_by = "abort"

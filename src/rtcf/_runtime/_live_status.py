@@ -35,6 +35,9 @@ class LiveStatus:
     # how often the loop started: a load or unload stops it and starts it again on its
     # time grid; a refused request must not (docs/security.md)
     starts: int = 0
+    # inputs past their deadline now (component.input), and how many times any passed it
+    past_deadline: tuple[str, ...] = ()
+    deadline_misses: int = 0
 
 
 class LiveReport:
@@ -73,7 +76,8 @@ class LiveReport:
                 diagnostics(status())
 
     def status(
-        self, aggregate: TimingAggregate, *, log_records_dropped: int, faults: int, access: str
+        self, aggregate: TimingAggregate, *, log_records_dropped: int, faults: int, access: str,
+        deadlines: tuple[tuple[str, ...], int] = ((), 0),
     ) -> LiveStatus:
         started = self.started_at if self.started_at is not None else time.monotonic()
         return LiveStatus(
@@ -87,4 +91,6 @@ class LiveReport:
             faults=faults,
             access=access,
             starts=self.starts,
+            past_deadline=deadlines[0],
+            deadline_misses=deadlines[1],
         )

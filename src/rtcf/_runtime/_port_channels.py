@@ -44,6 +44,7 @@ class MappedPort:
     offset: int = 0  # in the run's port segment
     nbytes: int = 0
     component: str = ""  # an action's: the component that serves it
+    deadline: float = 0.0  # an input's: the shortest deadline of the ports reading it
 
 
 def mapped_ports(
@@ -66,6 +67,11 @@ def mapped_ports(
                                   record_size, offset, size, server.component))
             offset += size
     seen: set[str] = set()
+    deadlines: dict[str, float] = {}  # per input topic, the shortest of its readers'
+    for reader in unfed_inputs:
+        if reader._deadline_ns > 0:
+            d = reader._deadline_ns / 1e9
+            deadlines[reader.topic] = min(d, deadlines.get(reader.topic, d))
     for direction, ports in (("output", outputs), ("input", unfed_inputs)):
         for port in sorted(ports, key=lambda p: p.topic):
             if port.topic in seen:
@@ -82,6 +88,7 @@ def mapped_ports(
                 MappedPort(
                     direction, port.topic, type_name(port.type), codec.kind, codec.max_size,
                     offset, size,
+                    deadline=deadlines.get(port.topic, 0.0) if direction == "input" else 0.0,
                 )
             )
             offset += size

@@ -15,6 +15,7 @@ from collections.abc import Callable, Mapping
 from dataclasses import dataclass
 from typing import Any, Protocol
 
+from .._core._deadlines import DeadlineEvent
 from .._core._faults import Fault, SafeStopOutcome
 from .._core._lane_names import MAIN_LANE
 from .._core._log import LogRecord
@@ -129,6 +130,8 @@ class RunChannels:
         # recording's drain and sink
         self._timing: tuple[Ring, list[str], TimingAggregate] | None = None
         self._recording: tuple[RecordingDrain, RecordSink] | None = None
+        # the worker's inputs with a deadline, in the order of its CTL_DEADLINES bits
+        self.deadline_names: list[str] = []
 
     @property
     def running(self) -> bool:
@@ -185,6 +188,7 @@ class RunChannels:
         ports: list[MappedPort] = prepared["ports"]
         recorded: list[RecordedTopic] = prepared["recorded"]
         run = Run(schedule, ports, recorded, record, ros_offset)
+        self.deadline_names = list(prepared.get("deadlines", []))
         if record is not None and recorded:
             record.begin(recorded)
             run.rec_seg = self._process.segment(recording_segment_size(recorded), "rtcf-record")
@@ -273,6 +277,8 @@ class RunChannels:
                                "missed": done.get("missed", 0)}},
             inputs={t: {"arrived": run.arrived.get(t, 0), **n}
                     for t, n in sorted(done.get("inputs", {}).items())},
+            deadlines=done.get("deadlines", {}),
+            deadline_events=[DeadlineEvent(**e) for e in done.get("deadline_events", [])],
         )
 
     def _port_channels(

@@ -235,7 +235,14 @@ class WorkerRunner:
             log_records_dropped=self.log_records_dropped,
             faults=self._process.faults,
             access=self.admission.access,
+            deadlines=self.past_deadline(),
         )
+
+    def past_deadline(self) -> tuple[tuple[str, ...], int]:
+        """The inputs past their deadline now, by name, and how many times any passed it."""
+        bits, misses = self._process.deadline_words
+        names = self.runs.deadline_names
+        return tuple(n for k, n in enumerate(names[:63]) if bits >> k & 1), misses
 
     # -- the runner's verbs ------------------------------------------------------
     def admits(self, what: str, module: str | None = None, component: str | None = None,
@@ -331,8 +338,11 @@ class WorkerRunner:
         return data
 
     def introspect(self) -> dict[str, Any]:
-        """The last introspection data, with the current tunable values and log levels."""
-        return self._loaded.introspect()
+        """The last introspection data, with the current tunable values and log levels,
+        and the inputs past their deadline now."""
+        data = self._loaded.introspect()
+        data["past_deadline"] = list(self.past_deadline()[0])
+        return data
 
     # -- tuning while running (any thread) ---------------------------------------
     def set_parameter(self, component: str, name: str, value: Any) -> Any:

@@ -113,6 +113,10 @@ _LAUNCHER_PARAMETERS = [
     ("max_restarts", "3", "restarts on_error restart allows"),
     ("fallback", "", "a component (in this lane) that takes over its outputs when it "
      "fails"),
+    ("deadline/NAME", "", "seconds: input NAME is past its deadline when its newest "
+     "value is older"),
+    ("on_deadline", "continue", "what an input past its deadline does: continue, "
+     "deactivate or stop"),
     ("topics_ignore_for_graph", "", "a regex of topics left out of the data-flow order"),
     ("rt_package, rt_type", "", "MODULE and CLASS, when not given as arguments"),
     ("(any other)", "", "the component's own parameters (self.params)"),

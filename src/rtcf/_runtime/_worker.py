@@ -57,6 +57,10 @@ CTL_ITERATION = 1  # the last iteration the worker finished a run at (informativ
 CTL_RUNNING = 2  # timing column of the component whose update runs now, -1: none (worker)
 CTL_HEARTBEAT = 3  # the supervisor counts up while it waits for a run (its sign of life)
 CTL_FAULTS = 4  # failures a policy contained so far (the worker counts)
+# inputs with a deadline (the worker's watch writes): bit k set while prepare's
+# deadlines[k] is past its deadline; and how many times any passed it
+CTL_DEADLINES = 5
+CTL_DEADLINE_MISSES = 6
 CTL_WORDS = 8
 CLOCK_MAILBOX_OFFSET = 8 * CTL_WORDS  # the /clock mailbox follows the control words
 
@@ -189,7 +193,13 @@ class Worker:
             self.doorbell = Doorbell(doorbell_fd)
         self.segments += [control_seg, log_seg, updates_seg]
         words = control_seg.buf[:CLOCK_MAILBOX_OFFSET].cast("q")
-        self._cells = [words[w : w + 1] for w in (CTL_STOP, CTL_RUNNING, CTL_HEARTBEAT, CTL_FAULTS)]
+        self._cells = [
+            words[w : w + 1]
+            for w in (
+                CTL_STOP, CTL_RUNNING, CTL_HEARTBEAT, CTL_FAULTS, CTL_DEADLINES,
+                CTL_DEADLINE_MISSES,
+            )
+        ]
         words.release()
         self.stop = StopFlag(self._cells[0])
         self.log_writer = writer = LogWriter(Ring.open(log_seg.buf))
@@ -228,9 +238,10 @@ class Worker:
             log_emit=emit,
             stop_flag=self.stop,
         )
-        running, _, faults = self._cells[1:]
+        running, _, faults, past, misses = self._cells[1:]
         running[0] = -1
         self.runner.running_cell = running
+        self.runner.deadlines.bits, self.runner.deadlines.misses = past, misses
 
         def parameter_set(name: str, value: Any) -> None:  # a component's params.set()
             if self._in_loop:  # a hook between two iterations: told after the run
@@ -368,6 +379,7 @@ class Worker:
         """Compile the schedule and list the mapped ports and the recorded topics (a
         full-match regex, or None); the supervisor sizes their channels."""
         runner = self._runner()
+        deadlines = runner.deadlines.names()  # (the launch file's deadlines applied)
         ports = []
         if bridged:
             ports = mapped_ports(*runner.mapped_ports(), runner.mapped_actions(),
@@ -376,7 +388,10 @@ class Worker:
         if record is not None:
             fed = runner.mapped_ports()[1] if bridged else []
             recorded = recorded_topics(_all_outputs(runner), fed, record)
-        return {"schedule": runner.schedule, "ports": ports, "recorded": recorded}
+        return {
+            "schedule": runner.schedule, "ports": ports, "recorded": recorded,
+            "deadlines": deadlines,  # bit k of CTL_DEADLINES
+        }
 
     def run(
         self,
@@ -507,6 +522,8 @@ class Worker:
             "recording": record_counts,
             "faults": [f.to_dict() for f in result.faults],
             "safe_stops": [vars(o) for o in result.safe_stops],
+            "deadlines": result.deadlines,
+            "deadline_events": [e.to_dict() for e in result.deadline_events],
             "heartbeat_lost": bool(watch is not None and watch.fired),
             "handovers": link.counts() if link is not None else {},
             "missed": runner.missed_releases,

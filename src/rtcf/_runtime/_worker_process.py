@@ -32,6 +32,8 @@ from ._doorbell import Doorbell, RungMailbox
 from ._shm import Segment, outgoing, send_segments
 from ._worker import (
     CLOCK_MAILBOX_OFFSET,
+    CTL_DEADLINE_MISSES,
+    CTL_DEADLINES,
     CTL_FAULTS,
     CTL_HEARTBEAT,
     CTL_RUNNING,
@@ -256,6 +258,13 @@ class WorkerProcess:
     def faults(self) -> int:
         """Component failures a policy contained (on_error deactivate/restart)."""
         return self.ctl[CTL_FAULTS] if self.ctl is not None else 0
+
+    @property
+    def deadline_words(self) -> tuple[int, int]:
+        """Inputs past their deadline now (a bit each), and how many times any passed it."""
+        if self.ctl is None:
+            return 0, 0
+        return self.ctl[CTL_DEADLINES], self.ctl[CTL_DEADLINE_MISSES]
 
     def drain_log(self, sink: Callable[[LogRecord], None]) -> None:
         if self.log_ring is not None:
