@@ -754,6 +754,7 @@ def now_iso() -> str:
 
 
 def write_results(name: str, data: Mapping[str, Any], quick: bool) -> Path:
+    """Write ``results/NAME.json`` (``NAME-quick.json`` with --quick) and say so."""
     RESULTS.mkdir(parents=True, exist_ok=True)
     path = RESULTS / (f"{name}-quick.json" if quick else f"{name}.json")
     text = json.dumps(data, indent=2, default=_json_default)
@@ -763,6 +764,7 @@ def write_results(name: str, data: Mapping[str, Any], quick: bool) -> Path:
     )
     text = _PAIR_LIST.sub(lambda m: "[" + ", ".join(_PAIR.findall(m.group(0))) + "]", text)
     path.write_text(text + "\n")
+    print(f"wrote {path.relative_to(REPO)}")
     return path
 
 
@@ -777,12 +779,16 @@ def _json_default(obj: Any) -> Any:
     raise TypeError(f"cannot write {type(obj).__name__} to JSON")
 
 
-def publish_section(name: str, body: str, machine: Mapping[str, Any], timestamp: str) -> None:
-    """Rewrite a benchmark's section of docs/performance.md, ending with where and when."""
+def publish_section(
+    name: str, paragraphs: Sequence[str], machine: Mapping[str, Any], timestamp: str
+) -> None:
+    """Rewrite a benchmark's section of docs/performance.md: the paragraphs (text,
+    tables, the verdict), a blank line apart, ending with where and when."""
     footer = (
         f"Machine: {machine_line(machine)}. Measured {timestamp} "
         f"(`benchmarks/results/{name}.json`)."
     )
+    body = "\n\n".join(paragraphs)
     update_doc_section(name, f"{body.rstrip()}\n\n{footer}")
     print(f"updated {DOC.relative_to(REPO)} (section {name})")
 

@@ -215,10 +215,9 @@ def main() -> int:
         "runs": {k: [r.timing for r in v] for k, v in runs.items()},
         "elapsed_s": elapsed,
     }
-    path = c.write_results(NAME, data, args.quick)
-    print(f"wrote {path.relative_to(c.REPO)}")
+    c.write_results(NAME, data, args.quick)
     if not args.quick:
-        body = "\n".join([
+        paragraphs = [
             f"`benchmarks/lanes.py`: {rounds} alternating rounds of **{duration:g} s** per "
             "system, idle, every lane's worker at SCHED_FIFO 80 on a CPU of its own (the main "
             "lane on the last CPU, the other lane on the next one down). (a) Two branches "
@@ -226,14 +225,11 @@ def main() -> int:
             "lane and in two; the worst round's quantiles. (b) A `Busy` with "
             f"{HEAVY_US / 1000:g} ms of CPU every {HEAVY_EVERY} iterations beside a 1 kHz loop "
             "(`Sine` -> `Busy` -> `Identity`), in the main lane and in a LET lane.",
-            "",
             tab_a,
-            "",
             tab_b,
-            "",
             summary + ".",
-        ])
-        c.publish_section(NAME, body, machine, data["timestamp"])
+        ]
+        c.publish_section(NAME, paragraphs, machine, data["timestamp"])
     return 0
 
 

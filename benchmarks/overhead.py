@@ -357,33 +357,25 @@ def main() -> int:
         "tight_loops_ns_per_iteration": tight,
         "elapsed_s": elapsed,
     }
-    path = c.write_results(NAME, data, args.quick)
-    print(f"wrote {path.relative_to(c.REPO)}")
+    c.write_results(NAME, data, args.quick)
     if not args.quick:
         rtc = c.rt_conditions(run)
         how = c.against_plain(rtc, plain["realtime"], "the plain loop")
-        body = "\n".join(
-            [
-                f"Fig. 1 at {FREQUENCY:g} Hz, idle, **{duration:g} s** per run, rtcf on its "
-                f"compiled hot path, on its pure Python one (`RTCF_PURE_PYTHON=1`), then "
-                f"`benchmarks/_plain_loop.py` (the same sums inline, `clock_nanosleep` "
-                f"TIMER_ABSTIME, `time.monotonic_ns` around the work), `/dev/cpu_dma_latency` "
-                f"held at 0 for both. {how}. "
-                f"Target (issue 21): calculation p50 ≤ {TARGET_RATIO}x the plain loop's.",
-                "",
-                rt_table,
-                "",
-                steal + ".",
-                "",
-                verdict + ".",
-                "",
-                f"The same work in tight loops in one process, no sleeping "
-                f"({tight['conditions']}):",
-                "",
-                micro_table,
-            ]
-        )
-        c.publish_section(NAME, body, machine, data["timestamp"])
+        paragraphs = [
+            f"Fig. 1 at {FREQUENCY:g} Hz, idle, **{duration:g} s** per run, rtcf on its "
+            f"compiled hot path, on its pure Python one (`RTCF_PURE_PYTHON=1`), then "
+            f"`benchmarks/_plain_loop.py` (the same sums inline, `clock_nanosleep` "
+            f"TIMER_ABSTIME, `time.monotonic_ns` around the work), `/dev/cpu_dma_latency` "
+            f"held at 0 for both. {how}. "
+            f"Target (issue 21): calculation p50 ≤ {TARGET_RATIO}x the plain loop's.",
+            rt_table,
+            steal + ".",
+            verdict + ".",
+            f"The same work in tight loops in one process, no sleeping "
+            f"({tight['conditions']}):",
+            micro_table,
+        ]
+        c.publish_section(NAME, paragraphs, machine, data["timestamp"])
     return 0
 
 

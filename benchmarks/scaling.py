@@ -164,29 +164,24 @@ def main() -> int:
         "sizes": results,
         "elapsed_s": elapsed,
     }
-    path = c.write_results(NAME, data, args.quick)
-    print(f"wrote {path.relative_to(c.REPO)}")
+    c.write_results(NAME, data, args.quick)
     if not args.quick:
         rt = compiled[0]["realtime"]
         how = f"rtcf reported scheduler {rt.get('scheduler')}" + (
             f", run under `{rt['wrapper']}`" if rt.get("wrapper") else ""
         )
-        body = "\n".join(
-            [
-                f"A chain of one `Sine` and N-1 `Identity` components (every one reads and "
-                f"writes a port each iteration), **{duration:g} s** per size and hot path "
-                f"(compiled, and pure Python with `RTCF_PURE_PYTHON=1`), idle; {how}. "
-                "Launch: wall time from spawning `rtcf launch` until the loop started "
-                "(interpreter start, parsing, imports, loading, wiring, starting the worker, "
-                "mlockall, pre-faulting), an upper bound: the earlier of the CLI printing its "
-                "`real-time:` line and printing `ran N iterations` minus the loop's duration.",
-                "",
-                tab,
-                "",
-                summary + ".",
-            ]
-        )
-        c.publish_section(NAME, body, machine, data["timestamp"])
+        paragraphs = [
+            f"A chain of one `Sine` and N-1 `Identity` components (every one reads and "
+            f"writes a port each iteration), **{duration:g} s** per size and hot path "
+            f"(compiled, and pure Python with `RTCF_PURE_PYTHON=1`), idle; {how}. "
+            "Launch: wall time from spawning `rtcf launch` until the loop started "
+            "(interpreter start, parsing, imports, loading, wiring, starting the worker, "
+            "mlockall, pre-faulting), an upper bound: the earlier of the CLI printing its "
+            "`real-time:` line and printing `ran N iterations` minus the loop's duration.",
+            tab,
+            summary + ".",
+        ]
+        c.publish_section(NAME, paragraphs, machine, data["timestamp"])
     return 0
 
 
