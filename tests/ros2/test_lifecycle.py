@@ -17,7 +17,7 @@ from std_msgs.msg import Float64
 from rtcf._core import _lifecycle
 
 from .._launches import launch_xml, runner_xml
-from .._proc import wait_for
+from .._proc import end_after_each_test, wait_for
 from .conftest import start_rtcf
 from .test_nodes import STARTED, end, launcher, runner
 from .test_parameters import call
@@ -26,11 +26,7 @@ from .test_topics import spin_until, stop, wait_running
 pytestmark = pytest.mark.integration
 
 
-@pytest.fixture(autouse=True)
-def _end_all():
-    yield
-    end(*STARTED)
-    STARTED.clear()
+_end_all = end_after_each_test(STARTED, end)
 
 LAUNCH = launch_xml("""
   <group ns="lc">
