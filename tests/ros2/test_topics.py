@@ -46,6 +46,27 @@ def spin_until(node, predicate, timeout=15.0, publish=None):
         executor.remove_node(node)
 
 
+class FloatProbe:
+    """std_msgs/Float64 values published on a component's mapped input, and those its
+    mapped output sends back (``got``, in order)."""
+
+    def __init__(self, ros_node, topic_in, topic_out):
+        self._node = ros_node
+        self.got = []
+        ros_node.create_subscription(Float64, topic_out, lambda m: self.got.append(m.data), 10)
+        self._pub = ros_node.create_publisher(Float64, topic_in, 10)
+
+    def answers(self, x, expected, timeout=15.0):
+        """Publish ``x`` again and again until the last value received equals ``expected``
+        (a number, or pytest.approx of one); False if it did not within ``timeout``."""
+        return spin_until(
+            self._node,
+            lambda: bool(self.got) and self.got[-1] == expected,
+            timeout=timeout,
+            publish=lambda: self._pub.publish(Float64(data=x)),
+        )
+
+
 @pytest.mark.parametrize("launch_file", ["sum_test.launch", "sum_test.launch.xml"])
 def test_sum_test_outputs_three_times_the_input(ros_node, launch_file):
     """The original's SumTest: two chained sums in /rtcf, through real ROS 2 topics; from
@@ -101,14 +122,8 @@ def test_message_typed_ports_cross_as_serialized_bytes(ros_node, tmp_path):
     proc = start_rtcf("launch", path, "--middleware", "ros2")
     try:
         wait_running(proc)
-        got = []
-        ros_node.create_subscription(Float64, "/ros/y", lambda m: got.append(m.data), 10)
-        pub = ros_node.create_publisher(Float64, "/ros/x", 10)
-        assert spin_until(
-            ros_node,
-            lambda: bool(got) and got[-1] == pytest.approx(10 * 1.5),
-            publish=lambda: pub.publish(Float64(data=1.5)),
-        ), got[-3:]
+        probe = FloatProbe(ros_node, "/ros/x", "/ros/y")
+        assert probe.answers(1.5, pytest.approx(10 * 1.5)), probe.got[-3:]
     finally:
         if proc.poll() is None:
             _, err = stop(proc)
