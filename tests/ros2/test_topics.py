@@ -151,20 +151,14 @@ def test_a_port_type_that_cannot_cross_is_a_clear_error(tmp_path):
 def test_qos_of_mapped_topics_is_the_runners(ros_node, tmp_path):
     from rclpy.qos import DurabilityPolicy, ReliabilityPolicy
 
-    path = tmp_path / "qos.launch"
-    path.write_text(
-        launch_xml("""
-              <node name="a" pkg="rtcf" type="rt_launcher" args="rtcf_ros2_components ScaleMsg">
-                <remap from="in" to="/ros/qin"/>
-                <remap from="out" to="/ros/qout"/>
-              </node>
-            """, runner_xml(100.0, ros_mapping_whitelist="/ros/.*",
-                            ros_qos_reliability="best_effort",
-                            ros_qos_durability="transient_local", ros_qos_depth="3"))
-    )
-    proc = start_rtcf("launch", path, "--middleware", "ros2")
-    try:
-        wait_running(proc)
+    text = launch_xml("""
+          <node name="a" pkg="rtcf" type="rt_launcher" args="rtcf_ros2_components ScaleMsg">
+            <remap from="in" to="/ros/qin"/>
+            <remap from="out" to="/ros/qout"/>
+          </node>
+        """, runner_xml(100.0, ros_mapping_whitelist="/ros/.*", ros_qos_reliability="best_effort",
+                        ros_qos_durability="transient_local", ros_qos_depth="3"))
+    with launched(tmp_path / "qos.launch", text=text):
         # Discovery reports each endpoint on its own: wait for both.
         assert spin_until(
             ros_node,
@@ -176,9 +170,6 @@ def test_qos_of_mapped_topics_is_the_runners(ros_node, tmp_path):
         assert pub.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL
         (sub,) = ros_node.get_subscriptions_info_by_topic("/ros/qin")
         assert sub.qos_profile.reliability == ReliabilityPolicy.BEST_EFFORT
-    finally:
-        if proc.poll() is None:
-            stop(proc)
 
 
 def test_a_bad_qos_setting_is_a_clear_error(tmp_path):
