@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -139,24 +140,36 @@ def merge_cyclictest(cts: list[dict[str, Any]]) -> dict[str, Any]:
     }
 
 
+def by_condition(
+    results: list[dict[str, Any]],
+    rtcf: Callable[[dict[str, Any]], str],
+    cyclictest: Callable[[dict[str, Any]], str],
+) -> str:
+    """``condition: rtcf ..., cyclictest ...`` for each condition, ``; `` between them,
+    each tool's part shown by its function of that tool's results."""
+    return "; ".join(
+        f"{r['condition']}: rtcf {rtcf(r['rtcf'])}, cyclictest {cyclictest(r['cyclictest'])}"
+        for r in results
+    )
+
+
 def steal_line(results: list[dict[str, Any]]) -> str:
     """Hypervisor steal time on the loop's CPU: evidence for outliers that are not ours."""
-    parts = [
-        f"{r['condition']}: rtcf {c.fmt(r['rtcf']['steal_ms'], 0)} ms, "
-        f"cyclictest {c.fmt(r['cyclictest']['steal_ms'], 0)} ms"
-        for r in results
-    ]
-    return f"Steal time on CPU {c.RT_CPU} during the runs (/proc/stat): " + "; ".join(parts)
+    def ms(t: dict[str, Any]) -> str:
+        return f"{c.fmt(t['steal_ms'], 0)} ms"
+
+    return f"Steal time on CPU {c.RT_CPU} during the runs (/proc/stat): " + by_condition(
+        results, ms, ms
+    )
 
 
 def late_line(results: list[dict[str, Any]]) -> str:
     """Wake-ups later than a whole period: rtcf counts every catch-up iteration of a stall."""
-    parts = [
-        f"{r['condition']}: rtcf {r['rtcf']['late_by_a_period']} iterations, "
-        f"cyclictest {r['cyclictest']['late_by_a_period']} samples"
-        for r in results
-    ]
-    return f"Later than one period ({INTERVAL_US} µs): " + "; ".join(parts)
+    return f"Later than one period ({INTERVAL_US} µs): " + by_condition(
+        results,
+        lambda t: f"{t['late_by_a_period']} iterations",
+        lambda t: f"{t['late_by_a_period']} samples",
+    )
 
 
 def report(results: list[dict[str, Any]]) -> tuple[str, str]:
