@@ -18,7 +18,7 @@ from rosgraph_msgs.msg import Log
 from std_msgs.msg import String
 
 from .. import _proc
-from .._launches import launch_xml, runner_xml, tuned_launch
+from .._launches import launch_xml, launcher_xml, runner_xml, tuned_launch
 from .._proc import start_rtcf, wait_for, wait_running
 from ._helpers import wait_until
 from ._launch import end, ros1_env, rt_launcher, rt_runner
@@ -28,21 +28,20 @@ pytestmark = pytest.mark.integration
 
 TUNED = tuned_launch("rtcf_ros1_components", "/ros/tuned_in", "/ros/tuned_out", offset=1)
 
-READER = launch_xml("""
-  <param name="absolute" value="launch-absolute"/>
-  <group ns="cfg">
-    <param name="relative" value="launch-relative"/>
-    <node name="reader" pkg="rtcf" type="rt_launcher" args="rtcf_ros1_components ParamReader">
-      <param name="private" value="launch-private"/>
-      <param name="both" value="launch-both"/>
-      <remap from="private" to="/ros/reader/private"/>
-      <remap from="relative" to="/ros/reader/relative"/>
-      <remap from="absolute" to="/ros/reader/absolute"/>
-      <remap from="preset" to="/ros/reader/preset"/>
-      <remap from="both" to="/ros/reader/both"/>
-    </node>
-  </group>
-""", runner_xml(50.0, ros_mapping_whitelist="/ros/.*"))
+# ParamReader writes each parameter it read on its own port: all mapped to /ros/reader/
+READER = launch_xml(
+    '<param name="absolute" value="launch-absolute"/>\n'
+    '<group ns="cfg">\n  <param name="relative" value="launch-relative"/>'
+    + launcher_xml(
+        "reader",
+        "rtcf_ros1_components ParamReader",
+        {p: f"/ros/reader/{p}" for p in ("private", "relative", "absolute", "preset", "both")},
+        private="launch-private",
+        both="launch-both",
+    )
+    + "\n</group>",
+    runner_xml(50.0, ros_mapping_whitelist="/ros/.*"),
+)
 
 
 def launch(tmp_path, text):
