@@ -753,8 +753,21 @@ def now_iso() -> str:
     return dt.datetime.now(dt.timezone.utc).replace(microsecond=0).isoformat()
 
 
-def write_results(name: str, data: Mapping[str, Any], quick: bool) -> Path:
-    """Write ``results/NAME.json`` (``NAME-quick.json`` with --quick) and say so."""
+def print_report(machine: Mapping[str, Any], elapsed_s: float, *lines: str) -> None:
+    """The console's report of a run: the machine, ``lines`` (tables, verdicts; "" for a
+    blank line), and how long the whole benchmark took."""
+    print(f"machine: {machine_line(machine)}")
+    for line in lines:
+        print(line)
+    print(f"total {elapsed_s:.0f} s")
+
+
+def write_results(
+    name: str, data: Mapping[str, Any], quick: bool, docs: Sequence[str] = ()
+) -> Path:
+    """Write ``results/NAME.json`` (``NAME-quick.json`` with --quick) and say so; without
+    --quick, ``docs`` (paragraphs, if any) become the section NAME of docs/performance.md,
+    under ``data``'s machine and timestamp."""
     RESULTS.mkdir(parents=True, exist_ok=True)
     path = RESULTS / (f"{name}-quick.json" if quick else f"{name}.json")
     text = json.dumps(data, indent=2, default=_json_default)
@@ -765,6 +778,8 @@ def write_results(name: str, data: Mapping[str, Any], quick: bool) -> Path:
     text = _PAIR_LIST.sub(lambda m: "[" + ", ".join(_PAIR.findall(m.group(0))) + "]", text)
     path.write_text(text + "\n")
     print(f"wrote {path.relative_to(REPO)}")
+    if docs and not quick:
+        publish_section(name, docs, data["machine"], data["timestamp"])
     return path
 
 

@@ -245,18 +245,18 @@ def main() -> int:
         ]
     elapsed = time.perf_counter() - started
     jitter, calc = report(results)
-    print(f"machine: {c.machine_line(machine)}")
     load = " ".join(c.stress_args())
-    print(
+    c.print_report(
+        machine,
+        elapsed,
         f"Fig. 1 at {FREQUENCY:g} Hz, {duration:g} s per tool and condition in {rounds} "
-        f"rounds; rtcf wait_policy {args.wait_policy}; stress-ng {load}"
+        f"rounds; rtcf wait_policy {args.wait_policy}; stress-ng {load}",
+        jitter,
+        late_line(results),
+        steal_line(results),
+        "",
+        calc,
     )
-    print(jitter)
-    print(late_line(results))
-    print(steal_line(results))
-    print()
-    print(calc)
-    print(f"total {elapsed:.0f} s")
     data = {
         "benchmark": NAME,
         "timestamp": c.now_iso(),
@@ -275,34 +275,32 @@ def main() -> int:
     }
     shipped = args.wait_policy == "absolute"
     name = NAME if shipped else f"{NAME}-{args.wait_policy}"
-    c.write_results(name, data, args.quick)
-    if not args.quick and shipped:
-        rt = results[0]["rtcf"]["realtime"]
-        how = (
-            f"rtcf reported scheduler {rt.get('scheduler')}, priority {rt.get('priority')}, "
-            f"mlockall {rt.get('mlockall')}, CPUs {rt.get('cpu_affinity')}"
-        )
-        if rt.get("wrapper"):
-            how += f"; the benchmark ran it under `{rt['wrapper']}`"
-        paragraphs = [
-            f"Fig. 1 (H1 → F1 → R1, R2, R3) at {FREQUENCY:g} Hz; **{duration:g} s per tool "
-            f"and condition**, in {rounds} alternating rounds of rtcf and cyclictest "
-            f"(`cyclictest -m -p{c.PRIORITY} -i{INTERVAL_US} -a {c.RT_CPU} -h 10000`, same "
-            "priority and CPU; rtcf's quantiles from its merged histograms); load: "
-            f"`stress-ng {' '.join(c.stress_args())}` (the paper's 8 cpu + 8 io workers "
-            f"per core). `/dev/cpu_dma_latency` held at 0 during every run (cyclictest "
-            f"does that by itself; this gives rtcf the same machine). {how}. rtcf's "
-            "wait_policy is absolute, as shipped: after a stall the late iterations run "
-            "back to back and each counts as late, while cyclictest skips the missed "
-            "periods and counts a stall once (see the line under the table).",
-            "Wake-up jitter (rtcf: actual start minus scheduled start of an iteration; "
-            "cyclictest: the same for its C thread, 1 µs buckets):",
-            jitter,
-            late_line(results) + ". " + steal_line(results) + ".",
-            "Calculation time of a whole iteration (all five components):",
-            calc,
-        ]
-        c.publish_section(NAME, paragraphs, machine, data["timestamp"])
+    rt = results[0]["rtcf"]["realtime"]
+    how = (
+        f"rtcf reported scheduler {rt.get('scheduler')}, priority {rt.get('priority')}, "
+        f"mlockall {rt.get('mlockall')}, CPUs {rt.get('cpu_affinity')}"
+    )
+    if rt.get("wrapper"):
+        how += f"; the benchmark ran it under `{rt['wrapper']}`"
+    paragraphs = [
+        f"Fig. 1 (H1 → F1 → R1, R2, R3) at {FREQUENCY:g} Hz; **{duration:g} s per tool "
+        f"and condition**, in {rounds} alternating rounds of rtcf and cyclictest "
+        f"(`cyclictest -m -p{c.PRIORITY} -i{INTERVAL_US} -a {c.RT_CPU} -h 10000`, same "
+        "priority and CPU; rtcf's quantiles from its merged histograms); load: "
+        f"`stress-ng {' '.join(c.stress_args())}` (the paper's 8 cpu + 8 io workers "
+        f"per core). `/dev/cpu_dma_latency` held at 0 during every run (cyclictest "
+        f"does that by itself; this gives rtcf the same machine). {how}. rtcf's "
+        "wait_policy is absolute, as shipped: after a stall the late iterations run "
+        "back to back and each counts as late, while cyclictest skips the missed "
+        "periods and counts a stall once (see the line under the table).",
+        "Wake-up jitter (rtcf: actual start minus scheduled start of an iteration; "
+        "cyclictest: the same for its C thread, 1 µs buckets):",
+        jitter,
+        late_line(results) + ". " + steal_line(results) + ".",
+        "Calculation time of a whole iteration (all five components):",
+        calc,
+    ]
+    c.write_results(name, data, args.quick, paragraphs if shipped else ())
     return 0
 
 
