@@ -753,7 +753,21 @@ def now_iso() -> str:
     return dt.datetime.now(dt.timezone.utc).replace(microsecond=0).isoformat()
 
 
-def write_results(name: str, data: Mapping[str, Any], quick: bool) -> Path:
+def print_report(machine: Mapping[str, Any], elapsed_s: float, *lines: str) -> None:
+    """The console's report of a run: the machine, ``lines`` (tables, verdicts; "" for a
+    blank line), and how long the whole benchmark took."""
+    print(f"machine: {machine_line(machine)}")
+    for line in lines:
+        print(line)
+    print(f"total {elapsed_s:.0f} s")
+
+
+def write_results(
+    name: str, data: Mapping[str, Any], quick: bool, docs: Sequence[str] = ()
+) -> Path:
+    """Write ``results/NAME.json`` (``NAME-quick.json`` with --quick) and say so; without
+    --quick, ``docs`` (paragraphs, if any) become the section NAME of docs/performance.md,
+    under ``data``'s machine and timestamp."""
     RESULTS.mkdir(parents=True, exist_ok=True)
     path = RESULTS / (f"{name}-quick.json" if quick else f"{name}.json")
     text = json.dumps(data, indent=2, default=_json_default)
@@ -763,6 +777,9 @@ def write_results(name: str, data: Mapping[str, Any], quick: bool) -> Path:
     )
     text = _PAIR_LIST.sub(lambda m: "[" + ", ".join(_PAIR.findall(m.group(0))) + "]", text)
     path.write_text(text + "\n")
+    print(f"wrote {path.relative_to(REPO)}")
+    if docs and not quick:
+        publish_section(name, docs, data["machine"], data["timestamp"])
     return path
 
 
@@ -777,12 +794,16 @@ def _json_default(obj: Any) -> Any:
     raise TypeError(f"cannot write {type(obj).__name__} to JSON")
 
 
-def publish_section(name: str, body: str, machine: Mapping[str, Any], timestamp: str) -> None:
-    """Rewrite a benchmark's section of docs/performance.md, ending with where and when."""
+def publish_section(
+    name: str, paragraphs: Sequence[str], machine: Mapping[str, Any], timestamp: str
+) -> None:
+    """Rewrite a benchmark's section of docs/performance.md: the paragraphs (text,
+    tables, the verdict), a blank line apart, ending with where and when."""
     footer = (
         f"Machine: {machine_line(machine)}. Measured {timestamp} "
         f"(`benchmarks/results/{name}.json`)."
     )
+    body = "\n\n".join(paragraphs)
     update_doc_section(name, f"{body.rstrip()}\n\n{footer}")
     print(f"updated {DOC.relative_to(REPO)} (section {name})")
 

@@ -148,11 +148,11 @@ def main() -> int:
         args.quick,
     )
     if not args.quick:
-        body = (
+        intro = (
             f"Median of {result['rounds']} alternating rounds of {BATCH} operations each "
-            f"(`benchmarks/channels.py`).\n\n{text}"
+            f"(`benchmarks/channels.py`)."
         )
-        publish_section("channels", body, machine, timestamp)
+        publish_section("channels", [intro, text], machine, timestamp)
     return 0
 
 

@@ -216,17 +216,17 @@ def main() -> int:
     where, where_rows = breakdown(tight["compiled"], per_ns)
     where_tab = c.table(["where rtcf's nanoseconds per component go (compiled)", "ns"],
                         where_rows)
-    print(f"machine: {c.machine_line(machine)}")
-    print(
+    c.print_report(
+        machine,
+        elapsed,
         f"median of {rounds} round(s) of {duration:g} s per system; "
-        f"p99 and p99.9 medians, max over the rounds"
+        f"p99 and p99.9 medians, max over the rounds",
+        tab,
+        steal,
+        tight_tab,
+        where_tab,
+        f"verdict: {verdict}",
     )
-    print(tab)
-    print(steal)
-    print(tight_tab)
-    print(where_tab)
-    print(f"verdict: {verdict}")
-    print(f"total {elapsed:.0f} s")
     data: dict[str, Any] = {
         "benchmark": NAME,
         "timestamp": c.now_iso(),
@@ -246,45 +246,33 @@ def main() -> int:
         "where_the_ns_go": where,
         "elapsed_s": elapsed,
     }
-    path = c.write_results(NAME, data, args.quick)
-    print(f"wrote {path.relative_to(c.REPO)}")
-    if not args.quick:
-        rt = runs["compiled"][0]["realtime"]
-        plain_rt = runs["plain"][0]["realtime"]
-        how = c.against_plain(rt, plain_rt, "the plain chain")
-        body = "\n".join(
-            [
-                f"A chain of one `Ramp` and {COMPONENTS - 1} `Gain` components (each reads a "
-                f"port, multiplies once, writes a port) at {FREQUENCY:g} Hz, idle, "
-                f"**{duration:g} s** per run in {rounds} alternating rounds, rtcf with each "
-                "hot path and `benchmarks/_plain_chain.py` (the same chain as plain objects, "
-                "bound `update` methods called in a for loop; timed: the clock read and "
-                "stored after each update, as rtcf's loop does), `/dev/cpu_dma_latency` "
-                f"held at 0. {how}. Per component: the median of the rounds' calculation "
-                f"p50, divided by {COMPONENTS}. Target (issue 21): ≤ {TARGET_RATIO}x plain "
-                "objects.",
-                "",
-                tab,
-                "",
-                steal + ".",
-                "",
-                "The same chain back to back in one process (`_tight_chain.py`, SCHED_FIFO, "
-                "no sleep, so the caches stay warm; rtcf's figure is its recorded "
-                "calculation p50 / 200):",
-                "",
-                tight_tab,
-                "",
-                "Where rtcf's nanoseconds per component go, from the same runs: the plain "
-                "objects called by rtcf's own loop (its compiled `Calculation`), and rtcf's "
-                "components (ports) called by a bare `for` loop, both warm; then what the "
-                "sleep between iterations adds to each:",
-                "",
-                where_tab,
-                "",
-                verdict + ".",
-            ]
-        )
-        c.publish_section(NAME, body, machine, data["timestamp"])
+    rt = runs["compiled"][0]["realtime"]
+    plain_rt = runs["plain"][0]["realtime"]
+    how = c.against_plain(rt, plain_rt, "the plain chain")
+    paragraphs = [
+        f"A chain of one `Ramp` and {COMPONENTS - 1} `Gain` components (each reads a "
+        f"port, multiplies once, writes a port) at {FREQUENCY:g} Hz, idle, "
+        f"**{duration:g} s** per run in {rounds} alternating rounds, rtcf with each "
+        "hot path and `benchmarks/_plain_chain.py` (the same chain as plain objects, "
+        "bound `update` methods called in a for loop; timed: the clock read and "
+        "stored after each update, as rtcf's loop does), `/dev/cpu_dma_latency` "
+        f"held at 0. {how}. Per component: the median of the rounds' calculation "
+        f"p50, divided by {COMPONENTS}. Target (issue 21): ≤ {TARGET_RATIO}x plain "
+        "objects.",
+        tab,
+        steal + ".",
+        "The same chain back to back in one process (`_tight_chain.py`, SCHED_FIFO, "
+        "no sleep, so the caches stay warm; rtcf's figure is its recorded "
+        "calculation p50 / 200):",
+        tight_tab,
+        "Where rtcf's nanoseconds per component go, from the same runs: the plain "
+        "objects called by rtcf's own loop (its compiled `Calculation`), and rtcf's "
+        "components (ports) called by a bare `for` loop, both warm; then what the "
+        "sleep between iterations adds to each:",
+        where_tab,
+        verdict + ".",
+    ]
+    c.write_results(NAME, data, args.quick, paragraphs)
     return 0
 
 

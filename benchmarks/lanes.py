@@ -198,11 +198,7 @@ def main() -> int:
         f"(target ≤ {100 * TARGET_OVERRUNS:.0f} %: {met})"
         f", against {100.0 * overruns['seq'] / max(1, iterations['seq']):.1f} % sequentially"
     )
-    print(f"machine: {c.machine_line(machine)}")
-    print(tab_a)
-    print(tab_b)
-    print(summary)
-    print(f"total {elapsed:.0f} s")
+    c.print_report(machine, elapsed, tab_a, tab_b, summary)
     data = {
         "benchmark": NAME,
         "timestamp": c.now_iso(),
@@ -215,25 +211,19 @@ def main() -> int:
         "runs": {k: [r.timing for r in v] for k, v in runs.items()},
         "elapsed_s": elapsed,
     }
-    path = c.write_results(NAME, data, args.quick)
-    print(f"wrote {path.relative_to(c.REPO)}")
-    if not args.quick:
-        body = "\n".join([
-            f"`benchmarks/lanes.py`: {rounds} alternating rounds of **{duration:g} s** per "
-            "system, idle, every lane's worker at SCHED_FIFO 80 on a CPU of its own (the main "
-            "lane on the last CPU, the other lane on the next one down). (a) Two branches "
-            f"of one `Busy` with {BRANCH_US} µs of CPU each, reading one `Sine`, in one "
-            "lane and in two; the worst round's quantiles. (b) A `Busy` with "
-            f"{HEAVY_US / 1000:g} ms of CPU every {HEAVY_EVERY} iterations beside a 1 kHz loop "
-            "(`Sine` -> `Busy` -> `Identity`), in the main lane and in a LET lane.",
-            "",
-            tab_a,
-            "",
-            tab_b,
-            "",
-            summary + ".",
-        ])
-        c.publish_section(NAME, body, machine, data["timestamp"])
+    paragraphs = [
+        f"`benchmarks/lanes.py`: {rounds} alternating rounds of **{duration:g} s** per "
+        "system, idle, every lane's worker at SCHED_FIFO 80 on a CPU of its own (the main "
+        "lane on the last CPU, the other lane on the next one down). (a) Two branches "
+        f"of one `Busy` with {BRANCH_US} µs of CPU each, reading one `Sine`, in one "
+        "lane and in two; the worst round's quantiles. (b) A `Busy` with "
+        f"{HEAVY_US / 1000:g} ms of CPU every {HEAVY_EVERY} iterations beside a 1 kHz loop "
+        "(`Sine` -> `Busy` -> `Identity`), in the main lane and in a LET lane.",
+        tab_a,
+        tab_b,
+        summary + ".",
+    ]
+    c.write_results(NAME, data, args.quick, paragraphs)
     return 0
 
 

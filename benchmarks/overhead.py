@@ -324,15 +324,17 @@ def main() -> int:
 
     micro_rows = [[k, cell(k, v)] for k, v in tight.items() if k != "conditions"]
     micro_table = c.table(["in-process, no sleeping", "ns per iteration"], micro_rows)
-    print(f"machine: {c.machine_line(machine)}")
-    print(f"Fig. 1 at {FREQUENCY:g} Hz, {duration:g} s each, idle; target ≤ {TARGET_RATIO}x")
-    print(rt_table)
-    print(steal)
-    print(f"verdict: {verdict}")
-    print()
-    print(f"tight loops: {tight['conditions']}")
-    print(micro_table)
-    print(f"total {elapsed:.0f} s")
+    c.print_report(
+        machine,
+        elapsed,
+        f"Fig. 1 at {FREQUENCY:g} Hz, {duration:g} s each, idle; target ≤ {TARGET_RATIO}x",
+        rt_table,
+        steal,
+        f"verdict: {verdict}",
+        "",
+        f"tight loops: {tight['conditions']}",
+        micro_table,
+    )
     data: dict[str, Any] = {
         "benchmark": NAME,
         "timestamp": c.now_iso(),
@@ -357,33 +359,23 @@ def main() -> int:
         "tight_loops_ns_per_iteration": tight,
         "elapsed_s": elapsed,
     }
-    path = c.write_results(NAME, data, args.quick)
-    print(f"wrote {path.relative_to(c.REPO)}")
-    if not args.quick:
-        rtc = c.rt_conditions(run)
-        how = c.against_plain(rtc, plain["realtime"], "the plain loop")
-        body = "\n".join(
-            [
-                f"Fig. 1 at {FREQUENCY:g} Hz, idle, **{duration:g} s** per run, rtcf on its "
-                f"compiled hot path, on its pure Python one (`RTCF_PURE_PYTHON=1`), then "
-                f"`benchmarks/_plain_loop.py` (the same sums inline, `clock_nanosleep` "
-                f"TIMER_ABSTIME, `time.monotonic_ns` around the work), `/dev/cpu_dma_latency` "
-                f"held at 0 for both. {how}. "
-                f"Target (issue 21): calculation p50 ≤ {TARGET_RATIO}x the plain loop's.",
-                "",
-                rt_table,
-                "",
-                steal + ".",
-                "",
-                verdict + ".",
-                "",
-                f"The same work in tight loops in one process, no sleeping "
-                f"({tight['conditions']}):",
-                "",
-                micro_table,
-            ]
-        )
-        c.publish_section(NAME, body, machine, data["timestamp"])
+    rtc = c.rt_conditions(run)
+    how = c.against_plain(rtc, plain["realtime"], "the plain loop")
+    paragraphs = [
+        f"Fig. 1 at {FREQUENCY:g} Hz, idle, **{duration:g} s** per run, rtcf on its "
+        f"compiled hot path, on its pure Python one (`RTCF_PURE_PYTHON=1`), then "
+        f"`benchmarks/_plain_loop.py` (the same sums inline, `clock_nanosleep` "
+        f"TIMER_ABSTIME, `time.monotonic_ns` around the work), `/dev/cpu_dma_latency` "
+        f"held at 0 for both. {how}. "
+        f"Target (issue 21): calculation p50 ≤ {TARGET_RATIO}x the plain loop's.",
+        rt_table,
+        steal + ".",
+        verdict + ".",
+        f"The same work in tight loops in one process, no sleeping "
+        f"({tight['conditions']}):",
+        micro_table,
+    ]
+    c.write_results(NAME, data, args.quick, paragraphs)
     return 0
 
 

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -139,24 +140,36 @@ def merge_cyclictest(cts: list[dict[str, Any]]) -> dict[str, Any]:
     }
 
 
+def by_condition(
+    results: list[dict[str, Any]],
+    rtcf: Callable[[dict[str, Any]], str],
+    cyclictest: Callable[[dict[str, Any]], str],
+) -> str:
+    """``condition: rtcf ..., cyclictest ...`` for each condition, ``; `` between them,
+    each tool's part shown by its function of that tool's results."""
+    return "; ".join(
+        f"{r['condition']}: rtcf {rtcf(r['rtcf'])}, cyclictest {cyclictest(r['cyclictest'])}"
+        for r in results
+    )
+
+
 def steal_line(results: list[dict[str, Any]]) -> str:
     """Hypervisor steal time on the loop's CPU: evidence for outliers that are not ours."""
-    parts = [
-        f"{r['condition']}: rtcf {c.fmt(r['rtcf']['steal_ms'], 0)} ms, "
-        f"cyclictest {c.fmt(r['cyclictest']['steal_ms'], 0)} ms"
-        for r in results
-    ]
-    return f"Steal time on CPU {c.RT_CPU} during the runs (/proc/stat): " + "; ".join(parts)
+    def ms(t: dict[str, Any]) -> str:
+        return f"{c.fmt(t['steal_ms'], 0)} ms"
+
+    return f"Steal time on CPU {c.RT_CPU} during the runs (/proc/stat): " + by_condition(
+        results, ms, ms
+    )
 
 
 def late_line(results: list[dict[str, Any]]) -> str:
     """Wake-ups later than a whole period: rtcf counts every catch-up iteration of a stall."""
-    parts = [
-        f"{r['condition']}: rtcf {r['rtcf']['late_by_a_period']} iterations, "
-        f"cyclictest {r['cyclictest']['late_by_a_period']} samples"
-        for r in results
-    ]
-    return f"Later than one period ({INTERVAL_US} µs): " + "; ".join(parts)
+    return f"Later than one period ({INTERVAL_US} µs): " + by_condition(
+        results,
+        lambda t: f"{t['late_by_a_period']} iterations",
+        lambda t: f"{t['late_by_a_period']} samples",
+    )
 
 
 def report(results: list[dict[str, Any]]) -> tuple[str, str]:
@@ -232,18 +245,18 @@ def main() -> int:
         ]
     elapsed = time.perf_counter() - started
     jitter, calc = report(results)
-    print(f"machine: {c.machine_line(machine)}")
     load = " ".join(c.stress_args())
-    print(
+    c.print_report(
+        machine,
+        elapsed,
         f"Fig. 1 at {FREQUENCY:g} Hz, {duration:g} s per tool and condition in {rounds} "
-        f"rounds; rtcf wait_policy {args.wait_policy}; stress-ng {load}"
+        f"rounds; rtcf wait_policy {args.wait_policy}; stress-ng {load}",
+        jitter,
+        late_line(results),
+        steal_line(results),
+        "",
+        calc,
     )
-    print(jitter)
-    print(late_line(results))
-    print(steal_line(results))
-    print()
-    print(calc)
-    print(f"total {elapsed:.0f} s")
     data = {
         "benchmark": NAME,
         "timestamp": c.now_iso(),
@@ -262,42 +275,32 @@ def main() -> int:
     }
     shipped = args.wait_policy == "absolute"
     name = NAME if shipped else f"{NAME}-{args.wait_policy}"
-    path = c.write_results(name, data, args.quick)
-    print(f"wrote {path.relative_to(c.REPO)}")
-    if not args.quick and shipped:
-        rt = results[0]["rtcf"]["realtime"]
-        how = (
-            f"rtcf reported scheduler {rt.get('scheduler')}, priority {rt.get('priority')}, "
-            f"mlockall {rt.get('mlockall')}, CPUs {rt.get('cpu_affinity')}"
-        )
-        if rt.get("wrapper"):
-            how += f"; the benchmark ran it under `{rt['wrapper']}`"
-        body = "\n".join(
-            [
-                f"Fig. 1 (H1 → F1 → R1, R2, R3) at {FREQUENCY:g} Hz; **{duration:g} s per tool "
-                f"and condition**, in {rounds} alternating rounds of rtcf and cyclictest "
-                f"(`cyclictest -m -p{c.PRIORITY} -i{INTERVAL_US} -a {c.RT_CPU} -h 10000`, same "
-                "priority and CPU; rtcf's quantiles from its merged histograms); load: "
-                f"`stress-ng {' '.join(c.stress_args())}` (the paper's 8 cpu + 8 io workers "
-                f"per core). `/dev/cpu_dma_latency` held at 0 during every run (cyclictest "
-                f"does that by itself; this gives rtcf the same machine). {how}. rtcf's "
-                "wait_policy is absolute, as shipped: after a stall the late iterations run "
-                "back to back and each counts as late, while cyclictest skips the missed "
-                "periods and counts a stall once (see the line under the table).",
-                "",
-                "Wake-up jitter (rtcf: actual start minus scheduled start of an iteration; "
-                "cyclictest: the same for its C thread, 1 µs buckets):",
-                "",
-                jitter,
-                "",
-                late_line(results) + ". " + steal_line(results) + ".",
-                "",
-                "Calculation time of a whole iteration (all five components):",
-                "",
-                calc,
-            ]
-        )
-        c.publish_section(NAME, body, machine, data["timestamp"])
+    rt = results[0]["rtcf"]["realtime"]
+    how = (
+        f"rtcf reported scheduler {rt.get('scheduler')}, priority {rt.get('priority')}, "
+        f"mlockall {rt.get('mlockall')}, CPUs {rt.get('cpu_affinity')}"
+    )
+    if rt.get("wrapper"):
+        how += f"; the benchmark ran it under `{rt['wrapper']}`"
+    paragraphs = [
+        f"Fig. 1 (H1 → F1 → R1, R2, R3) at {FREQUENCY:g} Hz; **{duration:g} s per tool "
+        f"and condition**, in {rounds} alternating rounds of rtcf and cyclictest "
+        f"(`cyclictest -m -p{c.PRIORITY} -i{INTERVAL_US} -a {c.RT_CPU} -h 10000`, same "
+        "priority and CPU; rtcf's quantiles from its merged histograms); load: "
+        f"`stress-ng {' '.join(c.stress_args())}` (the paper's 8 cpu + 8 io workers "
+        f"per core). `/dev/cpu_dma_latency` held at 0 during every run (cyclictest "
+        f"does that by itself; this gives rtcf the same machine). {how}. rtcf's "
+        "wait_policy is absolute, as shipped: after a stall the late iterations run "
+        "back to back and each counts as late, while cyclictest skips the missed "
+        "periods and counts a stall once (see the line under the table).",
+        "Wake-up jitter (rtcf: actual start minus scheduled start of an iteration; "
+        "cyclictest: the same for its C thread, 1 µs buckets):",
+        jitter,
+        late_line(results) + ". " + steal_line(results) + ".",
+        "Calculation time of a whole iteration (all five components):",
+        calc,
+    ]
+    c.write_results(name, data, args.quick, paragraphs if shipped else ())
     return 0
 
 

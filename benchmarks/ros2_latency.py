@@ -620,17 +620,17 @@ def main() -> int:
     latency, arrival = report(merged)
     conditions = conditions_line(merged, wrapper)
     goal = goals(merged, args.frequency)
-    print(f"machine: {c.machine_line(machine)}")
-    print(
+    c.print_report(
+        machine,
+        elapsed,
         f"Fig. 1 at {args.frequency:g} Hz, probe at {args.rate:g} Hz, {args.duration:g} s per "
-        f"system in {args.rounds} rounds"
+        f"system in {args.rounds} rounds",
+        latency,
+        "",
+        arrival,
+        conditions,
+        goals_line(goal),
     )
-    print(latency)
-    print()
-    print(arrival)
-    print(conditions)
-    print(goals_line(goal))
-    print(f"total {elapsed:.0f} s")
     data: dict[str, Any] = {
         "benchmark": NAME,
         "timestamp": c.now_iso(),
@@ -669,46 +669,36 @@ def main() -> int:
     if data["ros2_bridge"] != "timed":
         name += f"-{data['ros2_bridge']}-bridge"
     data["hosts"] = args.hosts
-    path = c.write_results(name, data, args.quick)
-    print(f"wrote {path.relative_to(c.REPO)}")
-    if not args.quick and default:
-        where = (
-            "**Across two hosts**: every system in one network namespace, the probe in "
-            "another, joined by a veth pair, DDS over UDP (`--hosts 2`). " if args.hosts == 2
-            else ""
-        )
-        body = "\n".join(
-            [
-                f"{where}Fig. 1 at **{args.frequency:g} Hz** in every system; the probe publishes "
-                f"`std_msgs/Float64` sequence numbers at {args.rate:g} Hz on average and "
-                f"times the first output carrying each; **{args.duration:g} s per system**, "
-                f"in {args.rounds} "
-                f"alternating rounds, after {args.warmup:g} s of warm-up per round. "
-                f"{conditions}. `/dev/cpu_dma_latency` held at 0 throughout.",
-                "",
-                latency,
-                "",
-                periods_line(merged, args.frequency) + " " + per_round_line(rounds),
-                "",
-                "Output arrival jitter: |interval between the arrivals of two consecutive "
-                "numbers minus the interval between their sends| (the probe sends at random "
-                f"intervals of {1e3 / args.rate:g} ms ± 50 %, so that the sends sample every "
-                "phase of the systems' periods). Outputs/s: messages on the output topic "
-                "(rtcf and the timers publish it at the loop rate; the subscription-driven "
-                "R3 on each of its four input messages per number; the echo once per "
-                "number). Period jitter: |interval between two output messages in a row "
-                "minus the loop's period|, for the systems that publish once per period. "
-                "CPU: user + system time of the system's processes (rtcf: "
-                "supervisor and worker) over the measured time, 100 % = one core; "
-                f"no messages: the same over {args.idle:g} s before the probe started "
-                f"({args.settle:g} s after the system was up).",
-                "",
-                arrival,
-                "",
-                goals_line(goal),
-            ]
-        )
-        c.publish_section(name, body, machine, data["timestamp"])
+    where = (
+        "**Across two hosts**: every system in one network namespace, the probe in "
+        "another, joined by a veth pair, DDS over UDP (`--hosts 2`). " if args.hosts == 2
+        else ""
+    )
+    paragraphs = [
+        f"{where}Fig. 1 at **{args.frequency:g} Hz** in every system; the probe publishes "
+        f"`std_msgs/Float64` sequence numbers at {args.rate:g} Hz on average and "
+        f"times the first output carrying each; **{args.duration:g} s per system**, "
+        f"in {args.rounds} "
+        f"alternating rounds, after {args.warmup:g} s of warm-up per round. "
+        f"{conditions}. `/dev/cpu_dma_latency` held at 0 throughout.",
+        latency,
+        periods_line(merged, args.frequency) + " " + per_round_line(rounds),
+        "Output arrival jitter: |interval between the arrivals of two consecutive "
+        "numbers minus the interval between their sends| (the probe sends at random "
+        f"intervals of {1e3 / args.rate:g} ms ± 50 %, so that the sends sample every "
+        "phase of the systems' periods). Outputs/s: messages on the output topic "
+        "(rtcf and the timers publish it at the loop rate; the subscription-driven "
+        "R3 on each of its four input messages per number; the echo once per "
+        "number). Period jitter: |interval between two output messages in a row "
+        "minus the loop's period|, for the systems that publish once per period. "
+        "CPU: user + system time of the system's processes (rtcf: "
+        "supervisor and worker) over the measured time, 100 % = one core; "
+        f"no messages: the same over {args.idle:g} s before the probe started "
+        f"({args.settle:g} s after the system was up).",
+        arrival,
+        goals_line(goal),
+    ]
+    c.write_results(name, data, args.quick, paragraphs if default else ())
     return 0
 
 

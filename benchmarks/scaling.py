@@ -149,10 +149,7 @@ def main() -> int:
         f"({growth:.2f} of linear); the pure Python hot path's calc p50 over the compiled "
         f"one's ({pure_ratio}); `python -m rtcf --version` alone takes {baseline:.2f} s"
     )
-    print(f"machine: {c.machine_line(machine)}")
-    print(tab)
-    print(summary)
-    print(f"total {elapsed:.0f} s")
+    c.print_report(machine, elapsed, tab, summary)
     data = {
         "benchmark": NAME,
         "timestamp": c.now_iso(),
@@ -164,29 +161,22 @@ def main() -> int:
         "sizes": results,
         "elapsed_s": elapsed,
     }
-    path = c.write_results(NAME, data, args.quick)
-    print(f"wrote {path.relative_to(c.REPO)}")
-    if not args.quick:
-        rt = compiled[0]["realtime"]
-        how = f"rtcf reported scheduler {rt.get('scheduler')}" + (
-            f", run under `{rt['wrapper']}`" if rt.get("wrapper") else ""
-        )
-        body = "\n".join(
-            [
-                f"A chain of one `Sine` and N-1 `Identity` components (every one reads and "
-                f"writes a port each iteration), **{duration:g} s** per size and hot path "
-                f"(compiled, and pure Python with `RTCF_PURE_PYTHON=1`), idle; {how}. "
-                "Launch: wall time from spawning `rtcf launch` until the loop started "
-                "(interpreter start, parsing, imports, loading, wiring, starting the worker, "
-                "mlockall, pre-faulting), an upper bound: the earlier of the CLI printing its "
-                "`real-time:` line and printing `ran N iterations` minus the loop's duration.",
-                "",
-                tab,
-                "",
-                summary + ".",
-            ]
-        )
-        c.publish_section(NAME, body, machine, data["timestamp"])
+    rt = compiled[0]["realtime"]
+    how = f"rtcf reported scheduler {rt.get('scheduler')}" + (
+        f", run under `{rt['wrapper']}`" if rt.get("wrapper") else ""
+    )
+    paragraphs = [
+        f"A chain of one `Sine` and N-1 `Identity` components (every one reads and "
+        f"writes a port each iteration), **{duration:g} s** per size and hot path "
+        f"(compiled, and pure Python with `RTCF_PURE_PYTHON=1`), idle; {how}. "
+        "Launch: wall time from spawning `rtcf launch` until the loop started "
+        "(interpreter start, parsing, imports, loading, wiring, starting the worker, "
+        "mlockall, pre-faulting), an upper bound: the earlier of the CLI printing its "
+        "`real-time:` line and printing `ran N iterations` minus the loop's duration.",
+        tab,
+        summary + ".",
+    ]
+    c.write_results(NAME, data, args.quick, paragraphs)
     return 0
 
 

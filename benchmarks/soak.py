@@ -967,7 +967,6 @@ def report(data: dict[str, Any], quick: bool, *, write: bool = True) -> int:
     path = c.RESULTS / (f"{NAME}-quick.json" if quick else f"{NAME}.json")
     if write:
         path = c.write_results(NAME, data, quick)
-        print(f"wrote {path.relative_to(c.REPO)}")
     png = plot(data, path.with_suffix(".png"))
     print(f"wrote {png.relative_to(c.REPO)}")
     if not quick and cond["minutes"] == MINUTES:
@@ -982,33 +981,27 @@ def publish(data: dict[str, Any], mem_table: str, acc_table: str, jit_table: str
     applied = [i["name"] for i in rt.get("applied", []) if i.get("ok")]
     load = cond["load_avg_1min_over_samples"]
     cpu = cond["cpu_percent_of_one_core"]
-    body = "\n".join(
-        [
-            f"Fig. 1 (H1, F1, R1-R3) plus the SeqLogger at **{cond['frequency_hz']:g} Hz for "
-            f"{cond['minutes']:g} minutes** ({cond['iterations_planned']} iterations), "
-            f"`--middleware ros2`: the SeqLogger logs `seq N` and writes N on `{cond['topic']}` "
-            f"(std_msgs/Int64, reliable, transient local, depth {cond['qos']['depth']}) every "
-            f"iteration; records also go to /rosout, iterations to `~/iteration_info`. "
-            f"The loop: {sched}, applied: {', '.join(applied)}; `/dev/cpu_dma_latency` held "
-            f"at 0. CPU over the run: supervisor {c.fmt(cpu.get('supervisor'), 0)} %, worker "
-            f"{c.fmt(cpu.get('worker'), 0)} %, counting subscriber "
-            f"{c.fmt(cpu.get('subscriber'), 0)} % of a core. **The machine was shared**: "
-            f"load average (1 min) {load['min']:.2f}-{load['max']:.2f} over the samples; "
-            f"another process at SCHED_FIFO/RR was running in "
-            f"{cond['samples_with_other_rt_processes']} of {len(data['memory']['samples'])} "
-            f"samples ({', '.join(cond['other_rt_process_names_seen']) or 'none'}).",
-            "",
-            mem_table,
-            "",
-            acc_table,
-            "",
-            jit_table,
-            "",
-            "![Memory of both processes and tail jitter per minute over the hour]"
-            "(../benchmarks/results/soak.png)",
-        ]
-    )
-    c.publish_section(NAME, body, data["machine"], data["timestamp"])
+    paragraphs = [
+        f"Fig. 1 (H1, F1, R1-R3) plus the SeqLogger at **{cond['frequency_hz']:g} Hz for "
+        f"{cond['minutes']:g} minutes** ({cond['iterations_planned']} iterations), "
+        f"`--middleware ros2`: the SeqLogger logs `seq N` and writes N on `{cond['topic']}` "
+        f"(std_msgs/Int64, reliable, transient local, depth {cond['qos']['depth']}) every "
+        f"iteration; records also go to /rosout, iterations to `~/iteration_info`. "
+        f"The loop: {sched}, applied: {', '.join(applied)}; `/dev/cpu_dma_latency` held "
+        f"at 0. CPU over the run: supervisor {c.fmt(cpu.get('supervisor'), 0)} %, worker "
+        f"{c.fmt(cpu.get('worker'), 0)} %, counting subscriber "
+        f"{c.fmt(cpu.get('subscriber'), 0)} % of a core. **The machine was shared**: "
+        f"load average (1 min) {load['min']:.2f}-{load['max']:.2f} over the samples; "
+        f"another process at SCHED_FIFO/RR was running in "
+        f"{cond['samples_with_other_rt_processes']} of {len(data['memory']['samples'])} "
+        f"samples ({', '.join(cond['other_rt_process_names_seen']) or 'none'}).",
+        mem_table,
+        acc_table,
+        jit_table,
+        "![Memory of both processes and tail jitter per minute over the hour]"
+        "(../benchmarks/results/soak.png)",
+    ]
+    c.publish_section(NAME, paragraphs, data["machine"], data["timestamp"])
 
 
 if __name__ == "__main__":

@@ -22,6 +22,14 @@ def runner_xml(frequency=200.0, mode="no_wait", **params):
   </node>"""
 
 
+def launcher_xml(name, args, remaps=None, **params):
+    """An rt_launcher node (ROS 1 format) named ``name`` running ``args`` ("MODULE
+    CLASS"), its ports remapped by ``remaps`` (port -> topic), with these parameters."""
+    inner = "".join(f'\n    <remap from="{k}" to="{v}"/>' for k, v in (remaps or {}).items())
+    inner += _params("\n    ", params)
+    return f'\n  <node name="{name}" pkg="rtcf" type="rt_launcher" args="{args}">{inner}\n  </node>'
+
+
 def launch_xml(body, runner=None):
     """A launch file's text: the runner (``runner_xml()`` if not given), then ``body``."""
     return f"<launch>{runner or runner_xml()}\n{textwrap.dedent(body)}\n</launch>\n"

@@ -10,6 +10,8 @@ import sys
 import time
 from pathlib import Path
 
+import pytest
+
 SRC = Path(__file__).resolve().parents[1] / "src"
 
 _SEEN: dict[int, str] = {}
@@ -87,6 +89,25 @@ def stop(proc):
     out, err = read_rest(proc)
     assert proc.returncode == 0, err
     return out, err
+
+
+def end_after_each_test(started, end, *, launchers_first=False):
+    """An autouse fixture for a test module (assign it to a name there): after each test,
+    ``end`` the processes in the list ``started`` and forget them. ``launchers_first``:
+    one at a time, the last started first, so that launchers end while their runner
+    still answers their unload requests."""
+
+    @pytest.fixture(autouse=True)
+    def end_started():
+        yield
+        if launchers_first:
+            for proc in reversed(started):
+                end(proc)
+        else:
+            end(*started)
+        started.clear()
+
+    return end_started
 
 
 def rtcf_shm_names():

@@ -2,6 +2,7 @@
 (no middleware here: each test names its ROS's Header)."""
 
 import rtcf
+from rtcf.testing import run_components
 
 
 class StampsHeader(rtcf.Component):
@@ -16,3 +17,10 @@ class StampsHeader(rtcf.Component):
         header = self.header_type(frame_id="base")
         self.stamp_to(header.stamp)
         self.out.write(header)
+
+
+def stamped_headers(header_type):
+    """The ``header_type`` messages a StampsHeader wrote in three iterations at 2 Hz:
+    stamped with their iterations' ROS times, 0, 0.5 and 1 s."""
+    stamps = type("Stamps", (StampsHeader,), {"header_type": header_type})
+    return run_components([stamps], iterations=3, frequency=2.0).outputs["/header"]

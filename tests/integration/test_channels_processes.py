@@ -227,21 +227,19 @@ def consume(
     ],
 )
 def test_ring_between_processes(capacity: int, producer: str, fences: str) -> None:
-    with segment(64 + Ring.nbytes(capacity, 40)) as seg:
-        ctl = seg.buf[:64].cast("q")
-        ring = Ring.create(seg.buf[64:], capacity, 40)
-        try:
-            t0 = time.perf_counter()
-            with child(PREAMBLE + producer + CLOSE, seg, N) as proc:
-                received, torn = consume(ring, ctl, proc)
-                elapsed = time.perf_counter() - t0
-                finish(proc)
-            dropped = ring.dropped
-            produce_s = ctl[ELAPSED_NS] / 1e9
-            child_fenced = ctl[FENCED]
-        finally:
-            ring.close()
-            ctl.release()
+    with (
+        segment(64 + Ring.nbytes(capacity, 40)) as seg,
+        seg.buf[:64].cast("q") as ctl,
+        Ring.create(seg.buf[64:], capacity, 40) as ring,
+    ):
+        t0 = time.perf_counter()
+        with child(PREAMBLE + producer + CLOSE, seg, N) as proc:
+            received, torn = consume(ring, ctl, proc)
+            elapsed = time.perf_counter() - t0
+            finish(proc)
+        dropped = ring.dropped
+        produce_s = ctl[ELAPSED_NS] / 1e9
+        child_fenced = ctl[FENCED]
 
     print(
         f"\nring {capacity}: producer {N / produce_s:,.0f} records/s; "
@@ -264,45 +262,43 @@ def test_ring_between_processes(capacity: int, producer: str, fences: str) -> No
 def test_mailbox_between_processes(fences: str) -> None:
     size = 256
     final = (N).to_bytes(8, "little") * 32
-    with segment(64 + Mailbox.nbytes(size)) as seg:
-        ctl = seg.buf[:64].cast("q")
-        box = Mailbox.create(seg.buf[64:], size)
+    with (
+        segment(64 + Mailbox.nbytes(size)) as seg,
+        seg.buf[:64].cast("q") as ctl,
+        Mailbox.create(seg.buf[64:], size) as box,
+    ):
         out = bytearray(size)
         try_read_into = box.try_read_into
         reads = changed = never = 0
         torn: list[bytes] = []
         backwards: list[tuple[int, int]] = []
         last = 0
-        try:
-            with child(PREAMBLE + WRITE_MAILBOX + CLOSE, seg, N) as proc:
-                t_end = time.monotonic() + DEADLINE_S
-                while last != N:
-                    n = try_read_into(out)
-                    reads += 1
-                    if n == -2:
-                        changed += 1
-                        continue
-                    if n == -1:
-                        never += 1
-                        check_alive(proc, t_end)
-                        continue
-                    head = out[:8]
-                    if n != size or out != head * 32:
-                        torn.append(bytes(out))
-                    value = int.from_bytes(head, "little")
-                    if value < last:
-                        backwards.append((last, value))
-                    last = value
-                    if reads & 0xFFFF == 0:
-                        check_alive(proc, t_end)
-                finish(proc)
-            after = box.read()
-            version = box.version
-            write_s = ctl[ELAPSED_NS] / 1e9
-            child_fenced = ctl[FENCED]
-        finally:
-            box.close()
-            ctl.release()
+        with child(PREAMBLE + WRITE_MAILBOX + CLOSE, seg, N) as proc:
+            t_end = time.monotonic() + DEADLINE_S
+            while last != N:
+                n = try_read_into(out)
+                reads += 1
+                if n == -2:
+                    changed += 1
+                    continue
+                if n == -1:
+                    never += 1
+                    check_alive(proc, t_end)
+                    continue
+                head = out[:8]
+                if n != size or out != head * 32:
+                    torn.append(bytes(out))
+                value = int.from_bytes(head, "little")
+                if value < last:
+                    backwards.append((last, value))
+                last = value
+                if reads & 0xFFFF == 0:
+                    check_alive(proc, t_end)
+            finish(proc)
+        after = box.read()
+        version = box.version
+        write_s = ctl[ELAPSED_NS] / 1e9
+        child_fenced = ctl[FENCED]
 
     print(
         f"\nmailbox: writer {N / write_s:,.0f} writes/s; reader {reads:,} attempts, "

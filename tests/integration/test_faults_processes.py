@@ -11,6 +11,7 @@ import time
 
 import pytest
 
+from .._launches import launcher_xml
 from .._proc import read_rest, rtcf_shm_names, wait_for, wait_for_match
 from .test_worker import alive, runner_xml, start, write_launch
 
@@ -68,11 +69,7 @@ def test_system_exit_and_keyboard_interrupt_in_update_are_named(tmp_path, what, 
 
 
 def test_deactivate_contains_a_leaf_and_the_rest_goes_on(tmp_path):
-    leaf = """
-  <node name="display" pkg="rtcf" type="rt_launcher" args="rtcf_fault_components Leaf">
-    <param name="at" value="5"/>
-    <param name="on_error" value="deactivate"/>
-  </node>"""
+    leaf = launcher_xml("display", "rtcf_fault_components Leaf", at=5, on_error="deactivate")
     path, marker = loop(tmp_path, at=-1, extra=leaf)
     report = tmp_path / "report"
     proc = start("launch", path, "--duration", "0.5", "--report", report)
@@ -180,11 +177,7 @@ def test_watchdog_consecutive_overruns(tmp_path):
 
 
 def test_the_supervisor_names_the_component_running_when_the_worker_dies(tmp_path):
-    body = """
-  <node name="busy" pkg="rtcf" type="rt_launcher" args="rtcf_fault_components Busy">
-    <param name="ms" value="0.1"/>
-    <param name="hang_at" value="30"/>
-  </node>"""
+    body = launcher_xml("busy", "rtcf_fault_components Busy", ms=0.1, hang_at=30)
     path = write_launch(tmp_path, body, runner=runner_xml(frequency=100.0))
     proc = start("launch", path)
     worker = int(wait_for_match(proc, r"loop in worker process (\d+)").group(1))

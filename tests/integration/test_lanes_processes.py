@@ -20,7 +20,7 @@ from pathlib import Path
 
 import pytest
 
-from .._launches import let_launch
+from .._launches import launcher_xml, let_launch
 from .._proc import read_rest, rtcf_shm_names, wait_for_match
 from .conftest import run_rtcf
 from .test_worker import runner_xml, start, write_launch
@@ -196,11 +196,7 @@ def test_a_component_that_raises_in_a_lane_stops_every_lane_through_safe_stop(tm
     assert "/ctrl" in error and "ZeroDivisionError: boom at iteration 20" in error
 
 
-LET_OVERRUN = """
-  <node name="mpc" pkg="rtcf" type="rt_launcher" args="rtcf_examples Busy">
-    <param name="every" value="4"/><param name="cost_us" value="25000"/>
-    <param name="lane" value="mpc"/>
-  </node>"""
+LET_OVERRUN = launcher_xml("mpc", "rtcf_examples Busy", every=4, cost_us=25000, lane="mpc")
 
 
 def test_max_let_overruns_stops_every_lane_through_safe_stop(tmp_path):
@@ -266,11 +262,7 @@ def test_past_max_let_overruns_a_restart_policy_restarts_then_gives_up(tmp_path)
     assert faults[2].endswith("took out of the schedule: /mpc"), faults[2]
     assert "ran 400 iterations" in out
 
-HANG = """
-  <node name="slow" pkg="rtcf" type="rt_launcher" args="rtcf_fault_components Busy">
-    <param name="ms" value="0.1"/><param name="hang_at" value="40"/>
-    <param name="lane" value="planner"/>
-  </node>"""
+HANG = launcher_xml("slow", "rtcf_fault_components Busy", ms=0.1, hang_at=40, lane="planner")
 
 
 def test_a_lane_process_that_dies_ends_the_run_with_one_line_naming_it(tmp_path):

@@ -5,20 +5,16 @@ import json
 
 import pytest
 
-from .._launches import launch_xml, runner_xml
+from .._launches import launch_xml, launcher_xml, runner_xml
 from .conftest import run_rtcf
 
 pytestmark = pytest.mark.integration
 
-LAUNCH = launch_xml("""
-  <node name="a_cheap" pkg="rtcf" type="rt_launcher" args="rtcf_test_components Busy">
-    <param name="every" value="2"/>
-  </node>
-  <node name="b_heavy" pkg="rtcf" type="rt_launcher" args="rtcf_test_components Busy">
-    <param name="every" value="2"/>
-    <param name="busy_us" value="300"/>
-  </node>
-""", runner_xml(500.0, mode="wait_for_components", num_components_expected="2"))
+LAUNCH = launch_xml(
+    launcher_xml("a_cheap", "rtcf_test_components Busy", every=2)
+    + launcher_xml("b_heavy", "rtcf_test_components Busy", every=2, busy_us=300),
+    runner_xml(500.0, mode="wait_for_components", num_components_expected="2"),
+)
 
 
 def _phases(out):

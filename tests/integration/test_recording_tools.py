@@ -34,6 +34,14 @@ def record(path, launch, *args, duration="0.2"):
     return path
 
 
+def diffed(tmp_path, launch, *changed):
+    """``launch`` recorded as it is (a.mcap) and with the launch arguments ``changed``
+    (b.mcap): their paths and ``rtcf diff a.mcap b.mcap``."""
+    a = record(tmp_path / "a.mcap", launch)
+    b = record(tmp_path / "b.mcap", launch, *changed)
+    return a, b, run_rtcf("diff", a, b)
+
+
 def by_iteration(path, period_ns):
     """topic -> {iteration: value}, read with rosbags (under --sim: stamp = i x period)."""
     out = {}
@@ -61,9 +69,7 @@ def expected_first(a, b):
 
 
 def test_two_recordings_of_the_same_launch_file_are_identical(tmp_path):
-    a = record(tmp_path / "a.mcap", CASCADE)
-    b = record(tmp_path / "b.mcap", CASCADE)
-    result = run_rtcf("diff", a, b)
+    a, b, result = diffed(tmp_path, CASCADE)
     assert result.returncode == 0, result.stderr
     assert result.stdout == "identical: 6 topics, 1320 messages\n"
     only = run_rtcf("diff", a, b, "--topics", "/cascade/velocity.*")
@@ -71,9 +77,7 @@ def test_two_recordings_of_the_same_launch_file_are_identical(tmp_path):
 
 
 def test_a_changed_gain_shows_its_first_difference_with_both_values(tmp_path):
-    a = record(tmp_path / "a.mcap", SINE)
-    b = record(tmp_path / "b.mcap", SINE, "gain:=0.6")
-    result = run_rtcf("diff", a, b)
+    a, b, result = diffed(tmp_path, SINE, "gain:=0.6")
     assert result.returncode == 1, result.stderr
     assert result.stdout.startswith(f"{a} and {b} differ\n")
     period = 1_000_000  # 1 kHz
@@ -95,9 +99,7 @@ def test_a_changed_gain_shows_its_first_difference_with_both_values(tmp_path):
 
 
 def test_a_slower_controller_shows_missing_messages_and_counts(tmp_path):
-    a = record(tmp_path / "a.mcap", CASCADE)
-    b = record(tmp_path / "b.mcap", CASCADE, "position_rate:=250")
-    result = run_rtcf("diff", a, b)
+    a, b, result = diffed(tmp_path, CASCADE, "position_rate:=250")
     assert result.returncode == 1, result.stderr
     period = 500_000  # 2 kHz
     ra, rb = by_iteration(a, period), by_iteration(b, period)

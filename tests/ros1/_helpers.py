@@ -3,6 +3,7 @@
 import time
 
 import rospy
+from std_msgs.msg import Float64
 
 from .. import _proc
 
@@ -48,9 +49,30 @@ class Topics:
         self._topics.append(pub)
         return pub
 
+    def float_probe(self, topic_in, topic_out, x):
+        """A Float64 ``x`` to publish on a component's mapped input, and what its mapped
+        output sends back (connected before it returns)."""
+        out = self.sub(topic_out, Float64)
+        pub = self.pub(topic_in, Float64)
+        assert out.connected(), f"nothing publishes {topic_out}"
+        return FloatProbe(out, lambda: pub.publish(Float64(x)))
+
     def close(self):
         for t in self._topics:
             t.unregister()
+
+
+class FloatProbe:
+    """Float64 messages received (``out``) while ``feed`` publishes one input value."""
+
+    def __init__(self, out, feed):
+        self.out = out
+        self._feed = feed
+
+    def answers(self, expected):
+        """Feed until the last value received equals ``expected``; False if it did not
+        within wait_until's timeout."""
+        return wait_until(lambda: self.out and self.out[-1].data == expected, publish=self._feed)
 
 
 class Received(list):

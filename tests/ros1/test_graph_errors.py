@@ -11,16 +11,14 @@ import pytest
 import rospy
 from std_srvs.srv import Trigger
 
-from .._proc import read_rest, wait_for
-from .test_nodes import end_launchers_first, launcher, runner
+from .._proc import end_after_each_test, read_rest, wait_for
+from ._launch import end
+from .test_nodes import STARTED, launcher, runner
 
 pytestmark = pytest.mark.integration
 
 
-@pytest.fixture(autouse=True)
-def _end_all():
-    yield
-    end_launchers_first()
+_end_all = end_after_each_test(STARTED, end, launchers_first=True)
 
 
 def loaded(runner_name):

@@ -13,28 +13,14 @@ from rtcf_msgs.srv import GetRunnerInfo, LoadComponent, LoadComponentRequest
 from std_msgs.msg import Float64
 from std_srvs.srv import Trigger
 
-from .._proc import read_rest, wait_for
+from .._proc import end_after_each_test, read_rest, wait_for
 from ._helpers import wait_until
 from ._launch import BIN, end, ros1_env, rt_launcher, rt_runner, start
 
 pytestmark = pytest.mark.integration
 
 STARTED = []
-
-
-@pytest.fixture(autouse=True)
-def _end_all():
-    yield
-    end(*STARTED)
-    STARTED.clear()
-
-
-def end_launchers_first():
-    """End what the test started one by one, launchers first, while their runner
-    answers (an autouse fixture's teardown, where the order matters)."""
-    for proc in reversed(STARTED):
-        end(proc)
-    STARTED.clear()
+_end_all = end_after_each_test(STARTED, end)
 
 
 def runner(name, **params):

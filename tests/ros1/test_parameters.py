@@ -15,10 +15,10 @@ import pytest
 import rospy
 from roscpp.srv import GetLoggers, SetLoggerLevel
 from rosgraph_msgs.msg import Log
-from std_msgs.msg import Float64, String
+from std_msgs.msg import String
 
 from .. import _proc
-from .._launches import launch_xml, runner_xml, tuned_launch
+from .._launches import launch_xml, launcher_xml, runner_xml, tuned_launch
 from .._proc import start_rtcf, wait_for, wait_running
 from ._helpers import wait_until
 from ._launch import end, ros1_env, rt_launcher, rt_runner
@@ -28,21 +28,20 @@ pytestmark = pytest.mark.integration
 
 TUNED = tuned_launch("rtcf_ros1_components", "/ros/tuned_in", "/ros/tuned_out", offset=1)
 
-READER = launch_xml("""
-  <param name="absolute" value="launch-absolute"/>
-  <group ns="cfg">
-    <param name="relative" value="launch-relative"/>
-    <node name="reader" pkg="rtcf" type="rt_launcher" args="rtcf_ros1_components ParamReader">
-      <param name="private" value="launch-private"/>
-      <param name="both" value="launch-both"/>
-      <remap from="private" to="/ros/reader/private"/>
-      <remap from="relative" to="/ros/reader/relative"/>
-      <remap from="absolute" to="/ros/reader/absolute"/>
-      <remap from="preset" to="/ros/reader/preset"/>
-      <remap from="both" to="/ros/reader/both"/>
-    </node>
-  </group>
-""", runner_xml(50.0, ros_mapping_whitelist="/ros/.*"))
+# ParamReader writes each parameter it read on its own port: all mapped to /ros/reader/
+READER = launch_xml(
+    '<param name="absolute" value="launch-absolute"/>\n'
+    '<group ns="cfg">\n  <param name="relative" value="launch-relative"/>'
+    + launcher_xml(
+        "reader",
+        "rtcf_ros1_components ParamReader",
+        {p: f"/ros/reader/{p}" for p in ("private", "relative", "absolute", "preset", "both")},
+        private="launch-private",
+        both="launch-both",
+    )
+    + "\n</group>",
+    runner_xml(50.0, ros_mapping_whitelist="/ros/.*"),
+)
 
 
 def launch(tmp_path, text):
@@ -87,14 +86,11 @@ def dynparam(*args):
 
 
 def test_dynparam_set_changes_an_output_while_running(tuned, topics):
-    out = topics.sub("/ros/tuned_out", Float64)
-    pub = topics.pub("/ros/tuned_in", Float64)
-    assert out.connected()
-    feed = lambda: pub.publish(Float64(3.0))  # noqa: E731
-    assert wait_until(lambda: out and out[-1].data == 4.0, publish=feed), out[-3:]
+    probe = topics.float_probe("/ros/tuned_in", "/ros/tuned_out", 3.0)
+    assert probe.answers(4.0), probe.out[-3:]
     # rosrun dynamic_reconfigure dynparam set: the standard tool
     dynparam("set", "/ctl/tuned", "gain", "2.5")
-    assert wait_until(lambda: out[-1].data == 8.5, publish=feed), out[-3:]
+    assert probe.answers(8.5), probe.out[-3:]
     got = dynparam("get", "/ctl/tuned")
     assert "'gain': 2.5" in got and "'offset': 1" in got and "'mode': 'linear'" in got, got
     assert rospy.get_param("/ctl/tuned/gain") == 2.5  # as dynamic_reconfigure keeps it
@@ -110,13 +106,13 @@ def test_dynparam_set_changes_an_output_while_running(tuned, topics):
         assert "'square'" in desc["mode"]["edit_method"]
         # dynamic_reconfigure clamps to the range before rtcf sees the value
         assert client.update_configuration({"gain": 500.0})["gain"] == 100.0
-        assert wait_until(lambda: out[-1].data == 301.0, publish=feed), out[-3:]
+        assert probe.answers(301.0), probe.out[-3:]
         # not one of the choices: refused, the old value stays (and the reply says so)
         reply = client.update_configuration({"mode": "cubic"})
         assert reply["mode"] == "linear"
         reply = client.update_configuration({"mode": "square", "offset": -1})
         assert (reply["mode"], reply["offset"]) == ("square", -1)
-        assert wait_until(lambda: out[-1].data == 899.0, publish=feed), out[-3:]
+        assert probe.answers(899.0), probe.out[-3:]
     finally:
         client.close()
     err = stop(tuned)
@@ -192,13 +188,10 @@ def test_executables_mode_reads_the_server_and_serves_dynparam(topics):
     )
     try:
         wait_for(launcher, "loaded into", timeout=30)
-        out = topics.sub("/ros/exe_out", Float64)
-        pub = topics.pub("/ros/exe_in", Float64)
-        assert out.connected()
-        feed = lambda: pub.publish(Float64(2.0))  # noqa: E731
-        assert wait_until(lambda: out and out[-1].data == 7.0, publish=feed), out[-3:]
+        probe = topics.float_probe("/ros/exe_in", "/ros/exe_out", 2.0)
+        assert probe.answers(7.0), probe.out[-3:]
         dynparam("set", "/exe/tuned", "gain", "-3.0")
-        assert wait_until(lambda: out[-1].data == -1.0, publish=feed), out[-3:]
+        assert probe.answers(-1.0), probe.out[-3:]
         assert "'gain': -3.0" in dynparam("get", "/exe/tuned")
     finally:
         end(launcher, runner)

@@ -14,17 +14,14 @@ import numpy as np
 import pytest
 import rosbag
 
-from .._proc import read_rest
-from ._launch import ros1_env, start
-from .test_nodes import STARTED, end_launchers_first, launcher, runner, sum3
+from .._proc import end_after_each_test, read_rest
+from ._launch import end, ros1_env, start
+from .test_nodes import STARTED, launcher, runner, sum3
 
 pytestmark = pytest.mark.integration
 
 
-@pytest.fixture(autouse=True)
-def _end_all():
-    yield
-    end_launchers_first()
+_end_all = end_after_each_test(STARTED, end, launchers_first=True)
 
 
 def rosrun(*args, timeout=60):

@@ -6,16 +6,15 @@ import re
 import signal
 
 import pytest
-from rclpy.qos import QoSProfile, ReliabilityPolicy
-from rosgraph_msgs.msg import Clock
-from std_msgs.msg import Float64, Int64
+from std_msgs.msg import Int64
 
 from .._proc import read_rest, wait_for
 from . import test_lifecycle, test_parameters
+from ._clock import clock_publisher, step_clock
 from .conftest import start_rtcf
-from .test_node_args import CLOCKED, clock_msg
+from .test_node_args import CLOCKED
 from .test_nodes import STARTED, end, runner, start
-from .test_topics import launched, spin_until, wait_running
+from .test_topics import FloatProbe, launched, spin_until, wait_running
 from .test_topics import stop as stop_rtcf
 
 pytestmark = pytest.mark.integration
@@ -40,15 +39,9 @@ def test_a_lane_publishes_its_outputs_and_reads_what_ros_publishes(ros_node):
         wait_for(a, "loaded into")
         b = lane_launcher("lb", "right", "in1:=/lmid", "in2:=/ros/lin", "out1:=/ros/lout")
         wait_for(b, "loaded into")
-        got = []
-        ros_node.create_subscription(Float64, "/ros/lout", lambda m: got.append(m.data), 10)
-        pub = ros_node.create_publisher(Float64, "/ros/lin", 10)
+        probe = FloatProbe(ros_node, "/ros/lin", "/ros/lout")
         for x in (7.0, -2.5):
-            assert spin_until(
-                ros_node,
-                lambda x=x: bool(got) and got[-1] == pytest.approx(3 * x),
-                publish=lambda x=x: pub.publish(Float64(data=x)),
-            ), got[-3:]
+            assert probe.answers(x, pytest.approx(3 * x)), probe.got[-3:]
         end(b)
         wait_for(r, "unloaded /lb")
         end(a)
@@ -72,9 +65,7 @@ def test_lanes_follow_clock_with_use_sim_time(ros_node, tmp_path):
         ros_node.create_subscription(
             Int64, f"/ros/{k}_it", lambda m, v=values: v.append(m.data), 100
         )
-    pub = ros_node.create_publisher(
-        Clock, "/clock", QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT)
-    )
+    pub = clock_publisher(ros_node)
     r = start("rt_runner", "--ros-args", "-r", "__node:=clock_lanes", "--params-file", params)
     try:
         wait_for(r, "ready: 10 Hz")
@@ -86,14 +77,7 @@ def test_lanes_follow_clock_with_use_sim_time(ros_node, tmp_path):
             wait_for(echo, "loaded into")
         for k in got:
             assert spin_until(ros_node, lambda k=k: ros_node.count_publishers(f"/ros/{k}_it") > 0)
-        start_ns = 50 * 10**9
-        assert spin_until(ros_node, lambda: got["main"][-1:] == [0],
-                          publish=lambda: pub.publish(clock_msg(start_ns))), got
-        for k in range(1, 21):  # 1 s of /clock in steps of 50 ms: ten periods at 10 Hz
-            pub.publish(clock_msg(start_ns + k * 50_000_000))
-            spin_until(ros_node, lambda: False, timeout=0.05)
-        assert spin_until(ros_node, lambda: got["main"][-1:] == [10]), got
-        spin_until(ros_node, lambda: False, timeout=0.5)
+        step_clock(ros_node, pub, got["main"], periods=10)  # 1 s of /clock
         assert got["main"] == got["right"] == list(range(11)), got
         assert got["plan"] == [1, 4, 7, 10], got
         r.send_signal(signal.SIGINT)  # /clock has stopped: every lane still ends

@@ -16,8 +16,8 @@ from std_msgs.msg import Float64
 
 from rtcf._core import _lifecycle
 
-from .._launches import launch_xml, runner_xml
-from .._proc import wait_for
+from .._launches import launch_xml, launcher_xml, runner_xml
+from .._proc import end_after_each_test, wait_for
 from .conftest import start_rtcf
 from .test_nodes import STARTED, end, launcher, runner
 from .test_parameters import call
@@ -26,23 +26,16 @@ from .test_topics import spin_until, stop, wait_running
 pytestmark = pytest.mark.integration
 
 
-@pytest.fixture(autouse=True)
-def _end_all():
-    yield
-    end(*STARTED)
-    STARTED.clear()
+_end_all = end_after_each_test(STARTED, end)
 
-LAUNCH = launch_xml("""
-  <group ns="lc">
-    <node name="src" pkg="rtcf" type="rt_launcher" args="rtcf_examples Mimo">
-      <remap from="out1" to="/ros/lc_src"/>
-    </node>
-    <node name="relay" pkg="rtcf" type="rt_launcher" args="rtcf_examples Mimo">
-      <remap from="in1" to="/ros/lc_src"/>
-      <remap from="out1" to="/ros/lc_out"/>
-    </node>
-  </group>
-""", runner_xml(100.0, ros_mapping_whitelist="/ros/.*"))
+# /lc/src -> /ros/lc_src -> /lc/relay -> /ros/lc_out
+LAUNCH = launch_xml(
+    '<group ns="lc">'
+    + launcher_xml("src", "rtcf_examples Mimo", {"out1": "/ros/lc_src"})
+    + launcher_xml("relay", "rtcf_examples Mimo", {"in1": "/ros/lc_src", "out1": "/ros/lc_out"})
+    + "\n</group>",
+    runner_xml(100.0, ros_mapping_whitelist="/ros/.*"),
+)
 
 
 class Watch:

@@ -10,7 +10,7 @@ import pytest
 from rcl_interfaces.msg import Log
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 
-from .._proc import wait_for
+from .._proc import end_after_each_test, wait_for
 from .test_nodes import STARTED, end, start
 from .test_topics import spin_until
 
@@ -19,13 +19,7 @@ pytestmark = pytest.mark.integration
 ALL = {Log.DEBUG, Log.INFO, Log.WARN, Log.ERROR, Log.FATAL}
 
 
-@pytest.fixture(autouse=True)
-def _end_all():
-    yield
-    # the launchers first, while their runner still answers their unload requests
-    for proc in reversed(STARTED):
-        end(proc)
-    STARTED.clear()
+_end_all = end_after_each_test(STARTED, end, launchers_first=True)
 
 
 def launcher(name, *ros_args, namespace="/"):

@@ -11,18 +11,16 @@ import json
 import textwrap
 
 import pytest
-from builtin_interfaces.msg import Time
 from rcl_interfaces.srv import GetParameters
-from rclpy.qos import QoSProfile, ReliabilityPolicy
-from rosgraph_msgs.msg import Clock
-from std_msgs.msg import Float64, Int64
+from std_msgs.msg import Int64
 from std_srvs.srv import Trigger
 
-from .._proc import wait_for
+from .._proc import end_after_each_test, wait_for
+from ._clock import clock_publisher, step_clock
 from .conftest import start_rtcf
 from .test_nodes import STARTED, end, start
 from .test_parameters import call
-from .test_topics import spin_until, stop, wait_running
+from .test_topics import FloatProbe, spin_until, stop, wait_running
 
 pytestmark = pytest.mark.integration
 
@@ -53,11 +51,7 @@ LAUNCHER_PARAMS = """\
 """
 
 
-@pytest.fixture(autouse=True)
-def _end_all():
-    yield
-    end(*STARTED)
-    STARTED.clear()
+_end_all = end_after_each_test(STARTED, end)
 
 
 def nodes(ros_node):
@@ -111,11 +105,8 @@ def test_params_files_remaps_and_names_as_the_ros2_tools_see_them(ros_node, tmp_
     assert [(p["name"], p["topic"]) for p in component["outputs"]] == [("out", "/ros/arm_out")]
     assert get_params(ros_node, "/arm/tuned", "gain", "label") == [4.0, "from-the-file"]
     # and it computes with them: out = 4 * in + 1
-    got = []
-    ros_node.create_subscription(Float64, "/ros/arm_out", lambda m: got.append(m.data), 10)
-    pub = ros_node.create_publisher(Float64, "/ros/arm_in", 10)
-    assert spin_until(ros_node, lambda: bool(got) and got[-1] == 9.0,
-                      publish=lambda: pub.publish(Float64(data=2.0))), got[-3:]
+    probe = FloatProbe(ros_node, "/ros/arm_in", "/ros/arm_out")
+    assert probe.answers(2.0, 9.0), probe.got[-3:]
     end(la)
     wait_for(r, "unloaded /arm/tuned")
 
@@ -130,18 +121,12 @@ CLOCKED = """\
 """
 
 
-def clock_msg(ns):
-    return Clock(clock=Time(sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000))
-
-
 def test_use_sim_time_makes_an_rt_runners_loop_follow_clock(ros_node, tmp_path):
     params = tmp_path / "clocked.yaml"
     params.write_text(CLOCKED)
     iterations = []
     ros_node.create_subscription(Int64, "/ros/sim_it", lambda m: iterations.append(m.data), 100)
-    pub = ros_node.create_publisher(
-        Clock, "/clock", QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT)
-    )
+    pub = clock_publisher(ros_node)
     r = start("rt_runner", "--ros-args", "-r", "__node:=sim_runner", "--params-file", params)
     wait_for(r, "ready: 10 Hz")
     la = start("rt_launcher", "rtcf_ros2_components", "TimeEcho", "--ros-args",
@@ -152,14 +137,7 @@ def test_use_sim_time_makes_an_rt_runners_loop_follow_clock(ros_node, tmp_path):
     assert spin_until(ros_node, lambda: ros_node.count_subscribers("/clock") > 0)
     spin_until(ros_node, lambda: False, timeout=0.5)
     assert iterations == []  # no /clock yet: the loop waits
-    start_ns = 50 * 10**9
-    assert spin_until(ros_node, lambda: iterations[-1:] == [0],
-                      publish=lambda: pub.publish(clock_msg(start_ns))), iterations
-    for k in range(1, 11):  # 0.5 s of /clock in steps of 50 ms: five periods at 10 Hz
-        pub.publish(clock_msg(start_ns + k * 50_000_000))
-        spin_until(ros_node, lambda: False, timeout=0.05)
-    assert spin_until(ros_node, lambda: iterations[-1:] == [5]), iterations
-    spin_until(ros_node, lambda: False, timeout=0.5)
+    step_clock(ros_node, pub, iterations, periods=5)  # 0.5 s of /clock
     assert iterations[-1] == 5  # /clock stopped: so did the loop
 
 

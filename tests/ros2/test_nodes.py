@@ -10,11 +10,10 @@ import pytest
 from rcl_interfaces.msg import Parameter
 from rcl_interfaces.srv import SetParametersAtomically
 from rclpy.parameter import Parameter as PyParameter
-from std_msgs.msg import Float64
 
-from .._proc import wait_for
+from .._proc import end_after_each_test, wait_for
 from .conftest import rtcf_env
-from .test_topics import spin_until
+from .test_topics import FloatProbe, spin_until
 
 pytestmark = pytest.mark.integration
 
@@ -22,13 +21,6 @@ BIN = Path(sys.executable).parent
 
 
 STARTED = []
-
-
-@pytest.fixture(autouse=True)
-def _end_all():
-    yield
-    end(*STARTED)
-    STARTED.clear()
 
 
 def start(exe, *args):
@@ -73,6 +65,9 @@ def end(*procs):
             p.communicate()
 
 
+_end_all = end_after_each_test(STARTED, end)
+
+
 def sum_of_two_launchers(ros_node, runner_name, prefix):
     """Two Mimo launchers: out = 3 * in, as in the SumTest."""
     a = launcher(runner_name, f"{prefix}a", "Mimo", f"in1:=/ros/{prefix}in",
@@ -81,14 +76,8 @@ def sum_of_two_launchers(ros_node, runner_name, prefix):
                  f"in2:=/ros/{prefix}in", f"out1:=/ros/{prefix}out")
     wait_for(a, "loaded into")
     wait_for(b, "loaded into")
-    got = []
-    ros_node.create_subscription(Float64, f"/ros/{prefix}out", lambda m: got.append(m.data), 10)
-    pub = ros_node.create_publisher(Float64, f"/ros/{prefix}in", 10)
-    assert spin_until(
-        ros_node,
-        lambda: bool(got) and got[-1] == pytest.approx(3 * 7.0),
-        publish=lambda: pub.publish(Float64(data=7.0)),
-    ), got[-3:]
+    probe = FloatProbe(ros_node, f"/ros/{prefix}in", f"/ros/{prefix}out")
+    assert probe.answers(7.0, pytest.approx(3 * 7.0)), probe.got[-3:]
     return a, b
 
 
@@ -232,19 +221,13 @@ def test_a_launchers_node_tunes_its_component_in_the_runner(ros_node):
             "-p", "runner:=/tune_runner", "-p", "gain:=4.0"]
     la = start("rt_launcher", *args)
     wait_for(la, "loaded into", 30)
-    got = []
-    ros_node.create_subscription(Float64, "/ros/tl_out", lambda m: got.append(m.data), 10)
-    pub = ros_node.create_publisher(Float64, "/ros/tl_in", 10)
-
-    def publish():
-        pub.publish(Float64(data=2.0))
-
-    assert spin_until(ros_node, lambda: bool(got) and got[-1] == 8.0, publish=publish), got[-3:]
+    probe = FloatProbe(ros_node, "/ros/tl_in", "/ros/tl_out")
+    assert probe.answers(2.0, 8.0), probe.got[-3:]
     req = SetParameters.Request(parameters=[
         Parameter(name="gain", value=PyParameter("gain", value=0.5).get_parameter_value())
     ])
     assert call(ros_node, SetParameters, "/tl/set_parameters", req).results[0].successful
-    assert spin_until(ros_node, lambda: got[-1] == 1.0, publish=publish), got[-3:]
+    assert probe.answers(2.0, 1.0), probe.got[-3:]
     req = SetParameters.Request(parameters=[
         Parameter(name="mode", value=PyParameter("mode", value="cube").get_parameter_value())
     ])

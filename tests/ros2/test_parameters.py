@@ -16,10 +16,9 @@ from rcl_interfaces.srv import (
 )
 from rclpy.parameter import Parameter as PyParameter
 from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
-from std_msgs.msg import Float64
 
 from .._launches import tuned_launch
-from .test_topics import launched, spin_until
+from .test_topics import FloatProbe, launched, spin_until
 
 pytestmark = pytest.mark.integration
 
@@ -69,19 +68,13 @@ def test_the_component_is_a_node_with_typed_described_parameters(ros_node, tuned
 
 
 def test_a_parameter_set_while_running_changes_the_output(ros_node, tuned):
-    got = []
-    ros_node.create_subscription(Float64, "/ros/out", lambda m: got.append(m.data), 10)
-    pub = ros_node.create_publisher(Float64, "/ros/in", 10)
-
-    def publish():
-        pub.publish(Float64(data=3.0))
-
-    assert spin_until(ros_node, lambda: bool(got) and got[-1] == 6.0, publish=publish), got[-3:]
+    probe = FloatProbe(ros_node, "/ros/in", "/ros/out")
+    assert probe.answers(3.0, 6.0), probe.got[-3:]
     results = set_params(ros_node, gain=-1.5, offset=7)
     assert all(r.successful for r in results), [r.reason for r in results]
-    assert spin_until(ros_node, lambda: got[-1] == -1.5 * 3.0 + 7, publish=publish), got[-3:]
+    assert probe.answers(3.0, -1.5 * 3.0 + 7), probe.got[-3:]
     assert set_params(ros_node, mode="square")[0].successful
-    assert spin_until(ros_node, lambda: got[-1] == -1.5 * 9.0 + 7, publish=publish), got[-3:]
+    assert probe.answers(3.0, -1.5 * 9.0 + 7), probe.got[-3:]
 
 
 @pytest.mark.parametrize(

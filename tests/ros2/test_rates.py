@@ -3,12 +3,11 @@
 mapped output is published only when it was written."""
 
 import pytest
-from rclpy.qos import QoSProfile, ReliabilityPolicy
-from rosgraph_msgs.msg import Clock
 from std_msgs.msg import Float64, Int64
 
 from .._proc import wait_for
-from .test_node_args import CLOCKED, clock_msg
+from ._clock import clock_publisher, step_clock
+from .test_node_args import CLOCKED
 from .test_nodes import STARTED, end, start
 from .test_topics import spin_until
 
@@ -22,9 +21,7 @@ def test_a_launchers_every_and_phase_make_its_component_run_slower(ros_node, tmp
     ros_node.create_subscription(Int64, "/ros/fast_it", lambda m: fast.append(m.data), 100)
     ros_node.create_subscription(Int64, "/ros/slow_it", lambda m: slow.append(m.data), 100)
     ros_node.create_subscription(Float64, "/ros/slow_t", lambda m: slow_t.append(m.data), 100)
-    pub = ros_node.create_publisher(
-        Clock, "/clock", QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT)
-    )
+    pub = clock_publisher(ros_node)
     r = start("rt_runner", "--ros-args", "-r", "__node:=rate_runner", "--params-file", params)
     try:
         _check(ros_node, r, pub, fast, slow, slow_t)
@@ -47,14 +44,7 @@ def _check(ros_node, r, pub, fast, slow, slow_t):
     for topic in ("/ros/fast_it", "/ros/slow_it", "/ros/slow_t"):
         assert spin_until(ros_node, lambda t=topic: ros_node.count_publishers(t) > 0), topic
     assert spin_until(ros_node, lambda: ros_node.count_subscribers("/clock") > 0)
-    start_ns = 50 * 10**9
-    assert spin_until(ros_node, lambda: fast[-1:] == [0],
-                      publish=lambda: pub.publish(clock_msg(start_ns))), fast
-    for k in range(1, 21):  # 1 s of /clock in steps of 50 ms: ten periods at 10 Hz
-        pub.publish(clock_msg(start_ns + k * 50_000_000))
-        spin_until(ros_node, lambda: False, timeout=0.05)
-    assert spin_until(ros_node, lambda: fast[-1:] == [10]), fast
-    spin_until(ros_node, lambda: False, timeout=0.5)
+    step_clock(ros_node, pub, fast, periods=10)  # 1 s of /clock
     assert fast == list(range(11))
     # every 3 iterations from phase 1, and published only in those
     assert slow == [1, 4, 7, 10]

@@ -4,12 +4,10 @@ import textwrap
 import time
 
 import pytest
-from builtin_interfaces.msg import Time
-from rclpy.qos import QoSProfile, ReliabilityPolicy
-from rosgraph_msgs.msg import Clock
 from std_msgs.msg import Float64, Int64
 
 from .._launches import launch_xml, runner_xml
+from ._clock import clock_msg, clock_publisher
 from .conftest import start_rtcf
 from .test_topics import spin_until, stop, wait_running
 
@@ -23,19 +21,13 @@ LAUNCH = launch_xml("""
 """, runner_xml(10.0, use_sim_time="true", ros_mapping_whitelist="/ros/.*"))
 
 
-def clock_msg(ns):
-    return Clock(clock=Time(sec=ns // 1_000_000_000, nanosec=ns % 1_000_000_000))
-
-
 def test_clock_steps_the_loop_and_the_loop_waits_when_it_stops(ros_node, tmp_path):
     path = tmp_path / "sim.launch"
     path.write_text(textwrap.dedent(LAUNCH))
     iterations, times = [], []
     ros_node.create_subscription(Int64, "/ros/iteration", lambda m: iterations.append(m.data), 100)
     ros_node.create_subscription(Float64, "/ros/time", lambda m: times.append(m.data), 100)
-    pub = ros_node.create_publisher(
-        Clock, "/clock", QoSProfile(depth=1, reliability=ReliabilityPolicy.BEST_EFFORT)
-    )
+    pub = clock_publisher(ros_node)
     proc = start_rtcf("launch", path, "--middleware", "ros2")
     try:
         wait_running(proc)

@@ -46,6 +46,27 @@ def spin_until(node, predicate, timeout=15.0, publish=None):
         executor.remove_node(node)
 
 
+class FloatProbe:
+    """std_msgs/Float64 values published on a component's mapped input, and those its
+    mapped output sends back (``got``, in order)."""
+
+    def __init__(self, ros_node, topic_in, topic_out):
+        self._node = ros_node
+        self.got = []
+        ros_node.create_subscription(Float64, topic_out, lambda m: self.got.append(m.data), 10)
+        self._pub = ros_node.create_publisher(Float64, topic_in, 10)
+
+    def answers(self, x, expected, timeout=15.0):
+        """Publish ``x`` again and again until the last value received equals ``expected``
+        (a number, or pytest.approx of one); False if it did not within ``timeout``."""
+        return spin_until(
+            self._node,
+            lambda: bool(self.got) and self.got[-1] == expected,
+            timeout=timeout,
+            publish=lambda: self._pub.publish(Float64(data=x)),
+        )
+
+
 @pytest.mark.parametrize("launch_file", ["sum_test.launch", "sum_test.launch.xml"])
 def test_sum_test_outputs_three_times_the_input(ros_node, launch_file):
     """The original's SumTest: two chained sums in /rtcf, through real ROS 2 topics; from
@@ -101,14 +122,8 @@ def test_message_typed_ports_cross_as_serialized_bytes(ros_node, tmp_path):
     proc = start_rtcf("launch", path, "--middleware", "ros2")
     try:
         wait_running(proc)
-        got = []
-        ros_node.create_subscription(Float64, "/ros/y", lambda m: got.append(m.data), 10)
-        pub = ros_node.create_publisher(Float64, "/ros/x", 10)
-        assert spin_until(
-            ros_node,
-            lambda: bool(got) and got[-1] == pytest.approx(10 * 1.5),
-            publish=lambda: pub.publish(Float64(data=1.5)),
-        ), got[-3:]
+        probe = FloatProbe(ros_node, "/ros/x", "/ros/y")
+        assert probe.answers(1.5, pytest.approx(10 * 1.5)), probe.got[-3:]
     finally:
         if proc.poll() is None:
             _, err = stop(proc)
@@ -136,20 +151,14 @@ def test_a_port_type_that_cannot_cross_is_a_clear_error(tmp_path):
 def test_qos_of_mapped_topics_is_the_runners(ros_node, tmp_path):
     from rclpy.qos import DurabilityPolicy, ReliabilityPolicy
 
-    path = tmp_path / "qos.launch"
-    path.write_text(
-        launch_xml("""
-              <node name="a" pkg="rtcf" type="rt_launcher" args="rtcf_ros2_components ScaleMsg">
-                <remap from="in" to="/ros/qin"/>
-                <remap from="out" to="/ros/qout"/>
-              </node>
-            """, runner_xml(100.0, ros_mapping_whitelist="/ros/.*",
-                            ros_qos_reliability="best_effort",
-                            ros_qos_durability="transient_local", ros_qos_depth="3"))
-    )
-    proc = start_rtcf("launch", path, "--middleware", "ros2")
-    try:
-        wait_running(proc)
+    text = launch_xml("""
+          <node name="a" pkg="rtcf" type="rt_launcher" args="rtcf_ros2_components ScaleMsg">
+            <remap from="in" to="/ros/qin"/>
+            <remap from="out" to="/ros/qout"/>
+          </node>
+        """, runner_xml(100.0, ros_mapping_whitelist="/ros/.*", ros_qos_reliability="best_effort",
+                        ros_qos_durability="transient_local", ros_qos_depth="3"))
+    with launched(tmp_path / "qos.launch", text=text):
         # Discovery reports each endpoint on its own: wait for both.
         assert spin_until(
             ros_node,
@@ -161,9 +170,6 @@ def test_qos_of_mapped_topics_is_the_runners(ros_node, tmp_path):
         assert pub.qos_profile.durability == DurabilityPolicy.TRANSIENT_LOCAL
         (sub,) = ros_node.get_subscriptions_info_by_topic("/ros/qin")
         assert sub.qos_profile.reliability == ReliabilityPolicy.BEST_EFFORT
-    finally:
-        if proc.poll() is None:
-            stop(proc)
 
 
 def test_a_bad_qos_setting_is_a_clear_error(tmp_path):

@@ -119,6 +119,13 @@ def _runner(*specs: ComponentSpec, **settings: Any) -> tuple[Runner, Sink]:
     return runner, sink
 
 
+def _leaf_logger(fail_at: int) -> ComponentSpec:
+    """The logger, a leaf nothing reads, failing in iteration ``fail_at`` and deactivated."""
+    return ComponentSpec(
+        "logger", Logger, params={"fail_at": [fail_at]}, policy=FailurePolicy(on_error="deactivate")
+    )
+
+
 def _loop(ctrl_policy: FailurePolicy | None = None, fail_at: tuple[int, ...] = (), **extra: Any):
     specs = [
         ComponentSpec("hw", Hardware, is_first=True),
@@ -190,14 +197,7 @@ def test_deactivate_takes_out_the_component_and_its_downstream_feedback_included
 
 def test_deactivate_keeps_the_rest_on_the_same_time_grid_deterministically() -> None:
     def once() -> tuple[list[int], list[Any]]:
-        specs = [
-            ComponentSpec("hw", Hardware),
-            ComponentSpec(
-                "logger", Logger, params={"fail_at": [4]},
-                policy=FailurePolicy(on_error="deactivate"),
-            ),
-        ]
-        runner, _ = _runner(*specs)
+        runner, _ = _runner(ComponentSpec("hw", Hardware), _leaf_logger(4))
         result = runner.run(10)
         assert [f.taken_out for f in result.faults] == [["/logger"]]
         return runner.components["/logger"].ran, [runner.state.time_ns, result.iterations]
@@ -209,14 +209,7 @@ def test_deactivate_keeps_the_rest_on_the_same_time_grid_deterministically() -> 
 
 
 def test_a_leaf_failure_takes_out_only_the_leaf() -> None:
-    specs = [
-        *_loop(),
-        ComponentSpec(
-            "logger", Logger, params={"fail_at": [2]},
-            policy=FailurePolicy(on_error="deactivate"),
-        ),
-    ]
-    runner, sink = _runner(*specs)
+    runner, sink = _runner(*_loop(), _leaf_logger(2))
     result = runner.run(5)
     assert [f.taken_out for f in result.faults] == [["/logger"]]
     assert runner.components["/ctrl"].seen == [0, 1, 2, 3, 4]

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import os
 import textwrap
+from importlib import resources
 from pathlib import Path
 
 import pytest
@@ -13,25 +14,8 @@ from rtcf._core._errors import LaunchError, Location
 from rtcf._launch._description import LaunchDescription, NodeDescription
 from rtcf._launch._xml import parse_launch_file, parse_launch_string
 
-PAPER = """\
-<launch>
-  <node name="rt_runner" pkg="rtcf" type="rt_runner" output="screen">
-    <rosparam param="mode">"wait_for_components"</rosparam>
-    <rosparam param="ros_mapping_whitelist">".*ros.*"</rosparam>
-    <rosparam param="num_components_expected">2</rosparam>
-    <rosparam param="frequency">1000.0</rosparam>
-  </node>
-  <node name="example1" pkg="rtcf" type="rt_launcher" args="rtcf_examples PaperExample">
-    <remap from="out_port" to="/tmp"/>
-    <remap from="in_port" to="/ros/in"/>
-    <rosparam param="is_first">True</rosparam>
-  </node>
-  <node name="example2" pkg="rtcf" type="rt_launcher" args="rtcf_examples PaperExample">
-    <remap from="out_port" to="/ros/out"/>
-    <remap from="in_port" to="/tmp"/>
-  </node>
-</launch>
-"""
+# Listing 2 of the paper, as rtcf_examples ships it
+PAPER = Path(str(resources.files("rtcf_examples") / "launch" / "paper_example.launch"))
 
 
 def write(directory: Path, name: str, text: str) -> Path:
@@ -64,20 +48,19 @@ def params(description: LaunchDescription) -> dict[str, object]:
 # --------------------------------------------------------------------------- paper listing
 
 
-def test_paper_listing(tmp_path: Path) -> None:
-    path = write(tmp_path, "paper.launch", PAPER)
-    description = parse_launch_file(path)
+def test_paper_listing() -> None:
+    description = parse_launch_file(PAPER)
 
-    assert description.source == str(path)
+    assert description.source == str(PAPER)
     assert [n.full_name for n in description.nodes] == ["/rt_runner", "/example1", "/example2"]
     runner, example1, example2 = description.nodes
     assert (runner.package, runner.executable, runner.dialect) == ("rtcf", "rt_runner", "ros1")
     assert runner.output == "screen"
-    assert runner.location == Location(str(path), 2)
+    assert runner.location == Location(str(PAPER), 5)
     assert (example1.executable, example1.args) == ("rt_launcher", "rtcf_examples PaperExample")
     assert example1.remaps == [("out_port", "/tmp"), ("in_port", "/ros/in")]
     assert example2.remaps == [("out_port", "/ros/out"), ("in_port", "/tmp")]
-    assert (example1.location.line, example2.location.line) == (8, 13)
+    assert (example1.location.line, example2.location.line) == (12, 18)
     assert params(description) == {
         "/rt_runner/mode": "wait_for_components",
         "/rt_runner/ros_mapping_whitelist": ".*ros.*",

@@ -172,4 +172,20 @@ RTCF_INTERNAL int get_words(PyObject *obj, Py_buffer *view, const char *what);
  * free. Runs when the object dies, never per iteration */
 RTCF_INTERNAL void rtcf_gc_dealloc(PyObject *self);
 
+/* What opens every type object of the module: its qualified name, the struct of its
+ * objects and its doc (PyVarObject_HEAD_INIT brings its own comma) */
+#define RTCF_TYPE(qualname, Object, doc) \
+    PyVarObject_HEAD_INIT(NULL, 0)       \
+    .tp_name = qualname,                 \
+    .tp_doc = doc,                       \
+    .tp_basicsize = sizeof(Object)
+
+/* The three slots of a GC type that no class may subclass, given Prefix_traverse and
+ * Prefix_clear in its file: written together because rtcf_gc_dealloc calls the type's
+ * own tp_clear, which a type with this dealloc must therefore have */
+#define RTCF_GC_SLOTS(Prefix)                      \
+    .tp_dealloc = rtcf_gc_dealloc,                 \
+    .tp_traverse = (traverseproc)Prefix##_traverse, \
+    .tp_clear = (inquiry)Prefix##_clear
+
 #endif /* RTCF_COMPILED_H */

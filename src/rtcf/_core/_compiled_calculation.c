@@ -358,15 +358,11 @@ static PyMethodDef Calculation_methods[] = {
 };
 
 PyTypeObject CalculationType = {
-    PyVarObject_HEAD_INIT(NULL, 0)
-    .tp_name = "rtcf._core._compiled.Calculation",
-    .tp_doc = "The timed part of the loop's iterations (see rtcf._core._executor).",
-    .tp_basicsize = sizeof(CalculationObject),
+    RTCF_TYPE("rtcf._core._compiled.Calculation", CalculationObject,
+              "The timed part of the loop's iterations (see rtcf._core._executor)."),
     .tp_flags = Py_TPFLAGS_DEFAULT | Py_TPFLAGS_HAVE_GC,
     .tp_new = PyType_GenericNew,
     .tp_init = (initproc)Calculation_init,
-    .tp_dealloc = rtcf_gc_dealloc,
-    .tp_traverse = (traverseproc)Calculation_traverse,
-    .tp_clear = (inquiry)Calculation_clear,
+    RTCF_GC_SLOTS(Calculation),
     .tp_methods = Calculation_methods,
 };

@@ -96,17 +96,13 @@ static PyMemberDef RingGate_members[] = {
 };
 
 PyTypeObject RingGateType = {
-    PyVarObject_HEAD_INIT(NULL, 0)
-    .tp_name = "rtcf._core._compiled.RingGate",
-    .tp_doc = "RingGate(words, head, tail, fn): call fn when words[head] != words[tail].",
-    .tp_basicsize = sizeof(RingGateObject),
+    RTCF_TYPE("rtcf._core._compiled.RingGate", RingGateObject,
+              "RingGate(words, head, tail, fn): call fn when words[head] != words[tail]."),
     .tp_flags = Py_TPFLAGS_DEFAULT | Py_TPFLAGS_HAVE_GC,
     .tp_new = PyType_GenericNew,
     .tp_init = (initproc)RingGate_init,
     .tp_call = (ternaryfunc)RingGate_call,
-    .tp_dealloc = rtcf_gc_dealloc,
-    .tp_traverse = (traverseproc)RingGate_traverse,
-    .tp_clear = (inquiry)RingGate_clear,
+    RTCF_GC_SLOTS(RingGate),
     .tp_methods = RingGate_methods,
     .tp_members = RingGate_members,
 };
@@ -206,11 +202,9 @@ static PyMemberDef Heartbeat_members[] = {
 };
 
 PyTypeObject HeartbeatType = {
-    PyVarObject_HEAD_INIT(NULL, 0)
-    .tp_name = "rtcf._core._compiled.HeartbeatWatch",
-    .tp_doc = "HeartbeatWatch(cell, limit, stop, abort): a feeder that ends the loop when "
-              "cell[0] has not moved for limit iterations.",
-    .tp_basicsize = sizeof(HeartbeatObject),
+    RTCF_TYPE("rtcf._core._compiled.HeartbeatWatch", HeartbeatObject,
+              "HeartbeatWatch(cell, limit, stop, abort): a feeder that ends the loop when "
+              "cell[0] has not moved for limit iterations."),
     .tp_flags = Py_TPFLAGS_DEFAULT,
     .tp_new = PyType_GenericNew,
     .tp_init = (initproc)Heartbeat_init,

@@ -472,20 +472,16 @@ static PyMemberDef Handover_members[] = {
 };
 
 PyTypeObject HandoverType = {
-    PyVarObject_HEAD_INIT(NULL, 0)
-    .tp_name = "rtcf._core._compiled.Handover",
-    .tp_doc = "Handover(mode, words, entries, state, slot, kind, code, too_big, delayed, "
+    RTCF_TYPE("rtcf._core._compiled.Handover", HandoverObject,
+              "Handover(mode, words, entries, state, slot, kind, code, too_big, delayed, "
               "source, step, every, phase, simulated, period_ns, now, nap): a value crossing "
-              "lanes (mode 0: send, 1: receive, 2: a LET lane's output).",
-    .tp_basicsize = sizeof(HandoverObject),
+              "lanes (mode 0: send, 1: receive, 2: a LET lane's output)."),
     .tp_vectorcall_offset = offsetof(HandoverObject, vectorcall),
     .tp_flags = Py_TPFLAGS_DEFAULT | Py_TPFLAGS_HAVE_VECTORCALL | Py_TPFLAGS_HAVE_GC,
     .tp_new = Handover_new,
     .tp_init = (initproc)Handover_init,
     .tp_call = PyVectorcall_Call,
-    .tp_dealloc = rtcf_gc_dealloc,
-    .tp_traverse = (traverseproc)Handover_traverse,
-    .tp_clear = (inquiry)Handover_clear,
+    RTCF_GC_SLOTS(Handover),
     .tp_methods = Handover_methods,
     .tp_members = Handover_members,
 };

@@ -40,10 +40,8 @@ static PyMemberDef LoopState_members[] = {
 };
 
 PyTypeObject LoopStateType = {
-    PyVarObject_HEAD_INIT(NULL, 0)
-    .tp_name = "rtcf._core._compiled.LoopState",
-    .tp_doc = "What the loop tells components about the current iteration.",
-    .tp_basicsize = sizeof(LoopStateObject),
+    RTCF_TYPE("rtcf._core._compiled.LoopState", LoopStateObject,
+              "What the loop tells components about the current iteration."),
     .tp_flags = Py_TPFLAGS_DEFAULT,
     .tp_new = PyType_GenericNew,
     .tp_init = (initproc)LoopState_init,

@@ -251,15 +251,11 @@ static PyMemberDef CompiledPlans_members[] = {
 };
 
 PyTypeObject CompiledPlansType = {
-    PyVarObject_HEAD_INIT(NULL, 0)
-    .tp_name = "rtcf._core._compiled.CompiledPlans",
-    .tp_doc = "CompiledPlans(plans): an executor's plans as the calculation runs them.",
-    .tp_basicsize = sizeof(CompiledPlansObject),
+    RTCF_TYPE("rtcf._core._compiled.CompiledPlans", CompiledPlansObject,
+              "CompiledPlans(plans): an executor's plans as the calculation runs them."),
     .tp_flags = Py_TPFLAGS_DEFAULT | Py_TPFLAGS_HAVE_GC,
     .tp_new = CompiledPlans_new,
-    .tp_dealloc = rtcf_gc_dealloc,
-    .tp_traverse = (traverseproc)CompiledPlans_traverse,
-    .tp_clear = (inquiry)CompiledPlans_clear,
+    RTCF_GC_SLOTS(CompiledPlans),
     .tp_getset = CompiledPlans_getset,
     .tp_members = CompiledPlans_members,
 };

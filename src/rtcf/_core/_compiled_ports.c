@@ -316,10 +316,7 @@ static PyMemberDef Port_members[] = {
 };
 
 PyTypeObject PortType = {
-    PyVarObject_HEAD_INIT(NULL, 0)
-    .tp_name = "rtcf.Port",
-    .tp_doc = "Common part of inputs and outputs.",
-    .tp_basicsize = sizeof(PortObject),
+    RTCF_TYPE("rtcf.Port", PortObject, "Common part of inputs and outputs."),
     .tp_flags = Py_TPFLAGS_DEFAULT | Py_TPFLAGS_BASETYPE | Py_TPFLAGS_HAVE_GC,
     .tp_new = Port_new,
     .tp_init = (initproc)Port_init,
@@ -338,10 +335,8 @@ static PyMethodDef OutputPort_methods[] = {
 };
 
 PyTypeObject OutputPortType = {
-    PyVarObject_HEAD_INIT(NULL, 0)
-    .tp_name = "rtcf.OutputPort",
-    .tp_doc = "An output port: ``write(value)`` makes ``value`` the topic's latest value.",
-    .tp_basicsize = sizeof(PortObject),
+    RTCF_TYPE("rtcf.OutputPort", PortObject,
+              "An output port: ``write(value)`` makes ``value`` the topic's latest value."),
     .tp_flags = Py_TPFLAGS_DEFAULT | Py_TPFLAGS_BASETYPE | Py_TPFLAGS_HAVE_GC,
     .tp_base = &PortType,
     .tp_repr = (reprfunc)OutputPort_repr,
@@ -380,10 +375,8 @@ static PyGetSetDef InputPort_getset[] = {
 };
 
 PyTypeObject InputPortType = {
-    PyVarObject_HEAD_INIT(NULL, 0)
-    .tp_name = "rtcf.InputPort",
-    .tp_doc = "An input port: ``read()`` returns the latest value on its topic, or None.",
-    .tp_basicsize = sizeof(PortObject),
+    RTCF_TYPE("rtcf.InputPort", PortObject,
+              "An input port: ``read()`` returns the latest value on its topic, or None."),
     .tp_flags = Py_TPFLAGS_DEFAULT | Py_TPFLAGS_BASETYPE | Py_TPFLAGS_HAVE_GC,
     .tp_base = &PortType,
     .tp_repr = (reprfunc)InputPort_repr,

@@ -66,15 +66,11 @@ static PyMemberDef Slot_members[] = {
 };
 
 PyTypeObject SlotType = {
-    PyVarObject_HEAD_INIT(NULL, 0)
-    .tp_name = "rtcf._core._compiled.Slot",
-    .tp_doc = "The latest value on one topic and how many times it was written.",
-    .tp_basicsize = sizeof(SlotObject),
+    RTCF_TYPE("rtcf._core._compiled.Slot", SlotObject,
+              "The latest value on one topic and how many times it was written."),
     .tp_flags = Py_TPFLAGS_DEFAULT | Py_TPFLAGS_HAVE_GC,
     .tp_new = Slot_new,
-    .tp_dealloc = rtcf_gc_dealloc,
-    .tp_traverse = (traverseproc)Slot_traverse,
-    .tp_clear = (inquiry)Slot_clear,
+    RTCF_GC_SLOTS(Slot),
     .tp_getset = Slot_getset,
     .tp_members = Slot_members,
 };

@@ -182,11 +182,9 @@ static PyGetSetDef WordTap_getset[] = {
 };
 
 PyTypeObject WordTapType = {
-    PyVarObject_HEAD_INIT(NULL, 0)
-    .tp_name = "rtcf._core._compiled.WordTap",
-    .tp_doc = "WordTap(ctl, data, head, dropped, tail, capacity, record_size, state, kind): "
-              "a recorded float, int or bool output's tap.",
-    .tp_basicsize = sizeof(WordTapObject),
+    RTCF_TYPE("rtcf._core._compiled.WordTap", WordTapObject,
+              "WordTap(ctl, data, head, dropped, tail, capacity, record_size, state, kind): "
+              "a recorded float, int or bool output's tap."),
     .tp_vectorcall_offset = offsetof(WordTapObject, vectorcall),
     .tp_flags = Py_TPFLAGS_DEFAULT | Py_TPFLAGS_HAVE_VECTORCALL,
     .tp_new = WordTap_new,

@@ -46,38 +46,44 @@ def _parameters(rows: Sequence[tuple[str, str, str]]) -> list[str]:
     return lines
 
 
+# what differs by middleware: how the node is called, and the docs of its middleware
+_DOCS = {"ros2": "ros2.md", "ros1": "ros1.md"}
+_RUNNER_USAGE = {
+    "ros2": [
+        "usage: rt_runner [-h] [--ros-args [-p NAME:=VALUE ...] [-r __node:=NAME] "
+        "[-r __ns:=/NS]",
+        "                 [--params-file FILE] [--log-level LEVEL]]",
+        "       ros2 run rtcf rt_runner --ros-args -p frequency:=1000.0 -p mode:=no_wait",
+    ],
+    "ros1": [
+        "usage: rt_runner [-h] [_NAME:=VALUE ...] [__name:=NAME] [__ns:=/NS]",
+        "       rosrun rtcf rt_runner _frequency:=1000.0 _mode:=no_wait",
+    ],
+}
+_RUNNER_SERVICES = {
+    "ros2": [
+        "  ~/load_component, ~/unload_component   rcl_interfaces/srv/SetParametersAtomically",
+        "  ~/tune_component, ~/lifecycle_component rcl_interfaces/srv/SetParametersAtomically",
+        "  ~/activate_rt_loop, ~/deactivate_rt_loop std_srvs/srv/Trigger "
+        "(mode wait_for_trigger)",
+    ],
+    "ros1": [
+        "  ~load_component, ~unload_component     rtcf_msgs/LoadComponent, UnloadComponent",
+        "  ~activate_rt_loop, ~deactivate_rt_loop std_srvs/Trigger (mode wait_for_trigger)",
+        "  ~get_runner_info, ~set_component_log_level",
+    ],
+}
+# the parameters that only one middleware's runner reads
+_RUNNER_EXTRA: dict[str, list[tuple[str, str, str]]] = {
+    "ros2": [],
+    "ros1": [("/use_sim_time", "", "(global) counts where the runner sets no use_sim_time")],
+}
+
+
 def runner_usage(middleware: str) -> str:
     """rt_runner's usage on ``ros2`` or ``ros1``."""
-    if middleware == "ros2":
-        usage = [
-            "usage: rt_runner [-h] [--ros-args [-p NAME:=VALUE ...] [-r __node:=NAME] "
-            "[-r __ns:=/NS]",
-            "                 [--params-file FILE] [--log-level LEVEL]]",
-            "       ros2 run rtcf rt_runner --ros-args -p frequency:=1000.0 "
-            "-p mode:=no_wait",
-        ]
-        services = [
-            "  ~/load_component, ~/unload_component   rcl_interfaces/srv/SetParametersAtomically",
-            "  ~/tune_component, ~/lifecycle_component rcl_interfaces/srv/SetParametersAtomically",
-            "  ~/activate_rt_loop, ~/deactivate_rt_loop std_srvs/srv/Trigger "
-            "(mode wait_for_trigger)",
-        ]
-        docs = "ros2.md"
-        extra = []
-    else:
-        usage = [
-            "usage: rt_runner [-h] [_NAME:=VALUE ...] [__name:=NAME] [__ns:=/NS]",
-            "       rosrun rtcf rt_runner _frequency:=1000.0 _mode:=no_wait",
-        ]
-        services = [
-            "  ~load_component, ~unload_component     rtcf_msgs/LoadComponent, UnloadComponent",
-            "  ~activate_rt_loop, ~deactivate_rt_loop std_srvs/Trigger (mode wait_for_trigger)",
-            "  ~get_runner_info, ~set_component_log_level",
-        ]
-        docs = "ros1.md"
-        extra = [("/use_sim_time", "", "(global) counts where the runner sets no use_sim_time")]
     text = [
-        *usage,
+        *_RUNNER_USAGE[middleware],
         "",
         "A real-time runner: it loads components (from rt_launcher nodes, or its load "
         "service),",
@@ -85,12 +91,12 @@ def runner_usage(middleware: str) -> str:
         "and maps",
         "their ports to ROS topics. Its parameters (the node's private ones):",
         "",
-        *_parameters([*parameter_help(), *extra]),
+        *_parameters([*parameter_help(), *_RUNNER_EXTRA[middleware]]),
         "",
         "services:",
-        *services,
+        *_RUNNER_SERVICES[middleware],
         "",
-        f"docs: docs/runner.md and docs/{docs} in rtcf's source",
+        f"docs: docs/runner.md and docs/{_DOCS[middleware]} in rtcf's source",
     ]
     return "\n".join(text)
 
@@ -100,6 +106,20 @@ _LAUNCHER_RUNNER = {
     "ros2": ("runner", "/rt_runner", "the runner to load the component into"),
     "ros1": ("runner", "rt_runner", "the runner to load the component into; by default "
              "the nearest rt_runner from this node's namespace up to /"),
+}
+_LAUNCHER_USAGE = {
+    "ros2": [
+        "usage: rt_launcher [-h] MODULE CLASS [-f] [--ros-args [-r __node:=NAME] "
+        "[-r FROM:=TO ...]",
+        "                   [-p NAME:=VALUE ...] [--params-file FILE]]",
+        "       ros2 run rtcf rt_launcher rtcf_examples Mimo --ros-args -r __node:=sum1 "
+        "-r in1:=/in",
+    ],
+    "ros1": [
+        "usage: rt_launcher [-h] MODULE CLASS [-f] [__name:=NAME] [FROM:=TO ...] "
+        "[_NAME:=VALUE ...]",
+        "       rosrun rtcf rt_launcher rtcf_examples Mimo __name:=sum1 in1:=/in",
+    ],
 }
 _LAUNCHER_PARAMETERS = [
     ("is_first", "false", "the component starts a cycle (its inputs read the last "
@@ -125,24 +145,8 @@ _LAUNCHER_PARAMETERS = [
 
 def launcher_usage(middleware: str) -> str:
     """rt_launcher's usage on ``ros2`` or ``ros1``."""
-    if middleware == "ros2":
-        usage = [
-            "usage: rt_launcher [-h] MODULE CLASS [-f] [--ros-args [-r __node:=NAME] "
-            "[-r FROM:=TO ...]",
-            "                   [-p NAME:=VALUE ...] [--params-file FILE]]",
-            "       ros2 run rtcf rt_launcher rtcf_examples Mimo --ros-args -r __node:=sum1 "
-            "-r in1:=/in",
-        ]
-        docs = "ros2.md"
-    else:
-        usage = [
-            "usage: rt_launcher [-h] MODULE CLASS [-f] [__name:=NAME] [FROM:=TO ...] "
-            "[_NAME:=VALUE ...]",
-            "       rosrun rtcf rt_launcher rtcf_examples Mimo __name:=sum1 in1:=/in",
-        ]
-        docs = "ros1.md"
     text = [
-        *usage,
+        *_LAUNCHER_USAGE[middleware],
         "",
         "Loads the class CLASS of the Python module MODULE into a runner as a component "
         "with this",
@@ -156,6 +160,6 @@ def launcher_usage(middleware: str) -> str:
         "parameters (the node's private ones):",
         *_parameters([_LAUNCHER_RUNNER[middleware], *_LAUNCHER_PARAMETERS]),
         "",
-        f"docs: docs/launch-files.md and docs/{docs} in rtcf's source",
+        f"docs: docs/launch-files.md and docs/{_DOCS[middleware]} in rtcf's source",
     ]
     return "\n".join(text)
