@@ -14,6 +14,7 @@ import numpy as np
 
 import rtcf
 
+from ._layouts import matrix
 from ._message_types import message_class
 from ._params import ControllerParameters
 from ._throttle import Throttled
@@ -127,7 +128,7 @@ class JointStateBroadcaster(rtcf.Component):
             views = [self.dynamic.view(f"interface_values[{j}].values") for j in range(n)]
             self.copies_dynamic = [] if not n else [
                 (column, values[:n])
-                for column, values in zip(_matrix(views).T, self.values, strict=True)]
+                for column, values in zip(matrix(views).T, self.values, strict=True)]
 
     def update(self) -> None:
         for k, port in enumerate(self.ports):
@@ -159,17 +160,4 @@ class JointStateBroadcaster(rtcf.Component):
         for column, values in self.copies_dynamic:
             column[:] = values
         self.dynamic_joint_states.write(dynamic)
-
-
-def _matrix(rows: list[np.ndarray]) -> np.ndarray:
-    """Views of equal length, a fixed stride apart in one buffer, as one 2-D view."""
-    base = rows[0].__array_interface__["data"][0]
-    stride = rows[1].__array_interface__["data"][0] - base if len(rows) > 1 else 0
-    for j, row in enumerate(rows):
-        assert row.__array_interface__["data"][0] == base + j * stride, "uneven layout"
-    buffer = rows[0].base
-    start = base - np.frombuffer(buffer, dtype=np.uint8).__array_interface__["data"][0]
-    return np.ndarray((len(rows), len(rows[0])), dtype=rows[0].dtype, buffer=buffer,
-                      offset=start, strides=(stride, rows[0].itemsize))
-
 
