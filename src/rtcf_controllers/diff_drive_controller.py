@@ -15,6 +15,7 @@ import numpy as np
 
 import rtcf
 
+from ._odom_messages import OdomMessages
 from ._odometry import Odometry
 from ._params import ControllerParameters
 from ._speed_limiter import speed_limiter
@@ -23,9 +24,9 @@ _NS = 1_000_000_000
 _THROTTLE_NS = _NS  # ros2_controllers' warnings in the loop: at most one a second
 
 
-def _import_messages(enable_odom_tf: bool) -> tuple[Any, Any, Any, Any]:
+def _import_messages(enable_odom_tf: bool) -> tuple[Any, Any, Any]:
     try:
-        from geometry_msgs.msg import TransformStamped, TwistStamped
+        from geometry_msgs.msg import TwistStamped
         from nav_msgs.msg import Odometry as OdometryMessage
     except ImportError:
         raise rtcf.ConfigurationError(
@@ -43,7 +44,7 @@ def _import_messages(enable_odom_tf: bool) -> tuple[Any, Any, Any, Any]:
                 "enable_odom_tf: false"
             ) from None
         tf_message = TFMessage
-    return TwistStamped, OdometryMessage, TransformStamped, tf_message
+    return TwistStamped, OdometryMessage, tf_message
 
 
 class DiffDriveController(rtcf.Component):
@@ -98,9 +99,8 @@ class DiffDriveController(rtcf.Component):
         self.angular_limiter = speed_limiter(p, self, "angular.z")
         odom_frame, base_frame = self._frames(p)
 
-        twist, odometry, transform, tf_message = _import_messages(self.enable_odom_tf)
-        self.twist_message, self.odometry_message = twist, odometry
-        self.transform_message, self.tf_message = transform, tf_message
+        twist, odometry, tf_message = _import_messages(self.enable_odom_tf)
+        self.twist_message = twist
         self.odom_frame, self.base_frame = odom_frame, base_frame
         self.pose_covariance = np.diag(covariances[0]).reshape(36)
         self.twist_covariance = np.diag(covariances[1]).reshape(36)
@@ -117,12 +117,11 @@ class DiffDriveController(rtcf.Component):
         self.cmd_vel_out = (
             self.add_output("~cmd_vel_out", twist) if self.publish_limited_velocity else None
         )
+        self.messages = OdomMessages(odometry, tf_message, odom_frame, base_frame,
+                                     self.pose_covariance, self.twist_covariance)
         # the first message of a type loads its type support (an import): here, not in
         # the loop
-        self._odometry_message(0.0, 0.0, 0.0, 1.0)
         twist()
-        if tf_message is not None:
-            tf_message(transforms=[transform()])
         self.reset()
 
     def _frames(self, p: ControllerParameters) -> tuple[str, str]:
@@ -268,35 +267,9 @@ class DiffDriveController(rtcf.Component):
     def _publish(self) -> None:
         odometry = self.odometry
         half = odometry.heading * 0.5
-        qz, qw = math.sin(half), math.cos(half)
-        message = self._odometry_message(odometry.x, odometry.y, qz, qw)
-        self.odom.write(message)
-        if self.tf is not None:
-            transform = self.transform_message()
-            transform.header.stamp = message.header.stamp
-            transform.header.frame_id = self.odom_frame
-            transform.child_frame_id = self.base_frame
-            transform.transform.translation.x = odometry.x
-            transform.transform.translation.y = odometry.y
-            transform.transform.rotation.z = qz
-            transform.transform.rotation.w = qw
-            self.tf.write(self.tf_message(transforms=[transform]))
-
-    def _odometry_message(self, x: float, y: float, qz: float, qw: float) -> Any:
-        # a new message per write (publish_rate, 50 Hz): an in-process reader may
-        # still hold the last one
-        message = self.odometry_message()
-        self.stamp_to(message.header.stamp)
-        message.header.frame_id = self.odom_frame
-        message.child_frame_id = self.base_frame
-        pose = message.pose
-        pose.pose.position.x, pose.pose.position.y = x, y
-        pose.pose.orientation.z, pose.pose.orientation.w = qz, qw
-        pose.covariance = self.pose_covariance
-        twist = message.twist
-        twist.twist.linear.x, twist.twist.angular.z = self.odometry.linear, self.odometry.angular
-        twist.covariance = self.twist_covariance
-        return message
+        self.messages.write(self.odom, self.tf, self.stamp_ns, odometry.x, odometry.y,
+                            math.sin(half), math.cos(half), odometry.linear,
+                            odometry.angular)
 
     def _write_wheels(self, left: float, right: float) -> None:
         n = self.wheels_per_side
