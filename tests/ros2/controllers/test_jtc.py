@@ -111,7 +111,8 @@ def test_controller_state_reports_reference_feedback_and_error() -> None:
     trace = _run(40, {"state_publish_rate": 50.0}, plant={"stuck_s": 0.2},
                  inputs={TOPIC: _once(msg)})
     states = trace.outputs["/jtc/controller_state"]
-    assert states[0] is not None and states[1] is states[0]  # every other iteration at 100 Hz
+    stamps = [s.header.stamp.nanosec for s in states[:4]]
+    assert stamps == [0, 0, 20_000_000, 20_000_000]  # every other iteration at 100 Hz
     state = states[30]
     assert list(state.joint_names) == JOINTS
     assert list(state.reference.positions) == pytest.approx([0.3, -0.6])
