@@ -163,14 +163,15 @@ class JointTrajectoryController(rtcf.Component):
             self.log.error("holding position: %s", "goal_time exceeded" if late
                            else f"cmd_timeout {self.cfg.cmd_timeout:g} s")
             self._hold()
-        if self.cfg.state_every and self.iteration % self.cfg.state_every == 0:
+        # the rates count this controller's runs (its `rate` may be below the loop's)
+        if self.cfg.state_every and (self.iteration // self.every) % self.cfg.state_every == 0:
             self._publish_state(t - (trajectory.start or 0.0))
 
     def _monitor(self, path_joint: int, goal_joint: int, late: bool, timed_out: bool,
                  before_last: bool, since: float, trajectory: Trajectory) -> None:
         """The running goal: feedback at action_monitor_rate, and its end."""
         goal = self.goal
-        if (self.iteration - self.goal_iteration) % self.cfg.feedback_every == 0:
+        if (self.iteration - self.goal_iteration) // self.every % self.cfg.feedback_every == 0:
             self.action.publish_feedback(goal, self.messages.feedback(
                 self, self.desired, self.actual, self.error))
         tolerances = self.active_tolerances
