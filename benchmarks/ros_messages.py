@@ -20,6 +20,10 @@ each system's update is also timed in this process, back to back (warm caches): 
 cost of the write itself, apart from the loop and the machine's noise.
 
     .venv-ros2/bin/python benchmarks/ros_messages.py [--duration S] [--rounds N] [--quick]
+
+With ``--examples``: the loop of the two examples (arm.launch with
+``ros2_controllers:=true``, diffbot.launch) with every controller active, driven from
+ROS (``_examples_loop.py``).
 """
 
 from __future__ import annotations
@@ -161,8 +165,15 @@ def tight(quick: bool) -> dict[str, float]:
 def main() -> int:
     parser = c.parser(__doc__.splitlines()[0], 10)
     parser.add_argument("--rounds", type=int, default=3)
+    parser.add_argument("--examples", action="store_true",
+                        help="instead: the loop of the two examples with every controller "
+                             "active (_examples_loop.py)")
     args = parser.parse_args()
     c.require_ros2()
+    if args.examples:
+        import _examples_loop
+
+        return _examples_loop.run(args)
     duration = args.duration or (2.0 if args.quick else 10.0)
     rounds = 1 if args.quick else args.rounds
     machine = c.machine_info()
