@@ -17,7 +17,6 @@ from __future__ import annotations
 
 import statistics
 import sys
-import threading
 import time
 from typing import Any
 
@@ -35,24 +34,20 @@ COUNTED = {"arm": ("/joint_states", "feedback"), "diffbot": ("/diffbot_base_cont
                                                              "/tf")}
 
 
-class Driver:
+class Driver(c.SpinningNode):
     """An rclpy node spinning in a thread of this process: a FollowJointTrajectory
     goal to the arm once its server is up (one a run, as long as the run), ``cmd_vel``
     at 20 Hz, and counts of what the controllers publish."""
 
     def __init__(self, duration: float) -> None:
-        import rclpy
         from control_msgs.action import FollowJointTrajectory
         from geometry_msgs.msg import TwistStamped
         from nav_msgs.msg import Odometry
         from rclpy.action import ActionClient
-        from rclpy.executors import SingleThreadedExecutor
         from sensor_msgs.msg import JointState
         from tf2_msgs.msg import TFMessage
 
-        self.context = rclpy.Context()
-        rclpy.init(context=self.context)
-        self.node = rclpy.create_node("ros_messages_examples", context=self.context)
+        super().__init__("ros_messages_examples")
         self.count: dict[str, int] = {}
         for topic, cls in ((COUNTED["arm"][0], JointState), (COUNTED["diffbot"][0], Odometry),
                            ("/tf", TFMessage)):
@@ -61,15 +56,12 @@ class Driver:
         self.count["feedback"] = 0
         self.client = ActionClient(self.node, FollowJointTrajectory, ACTION)
         self.goal = _goal(FollowJointTrajectory, duration)
-        self.running: Any = None  # the future of our goal's result
+        self.running: Any = None  # the future of our goal's acceptance
         self.cmd_vel = self.node.create_publisher(TwistStamped, CMD_VEL, 10)
         self.twist = TwistStamped()
         self.twist.twist.linear.x, self.twist.twist.angular.z = 0.3, 0.2
         self.node.create_timer(0.05, self._drive)
-        self.executor = SingleThreadedExecutor(context=self.context)
-        self.executor.add_node(self.node)
-        self.thread = threading.Thread(target=self._spin, daemon=True)
-        self.thread.start()
+        self.start()
 
     def _counter(self, topic: str) -> Any:
         def count(_: bytes) -> None:
@@ -90,20 +82,6 @@ class Driver:
 
     def new_run(self) -> None:
         self.running = None
-
-    def _spin(self) -> None:
-        while self.context.ok():
-            try:
-                self.executor.spin_once(timeout_sec=0.1)
-            except Exception:  # shut down under it
-                return
-
-    def close(self) -> None:
-        import rclpy
-
-        rclpy.shutdown(context=self.context)
-        self.thread.join(5)
-        self.node.destroy_node()
 
 
 def _goal(action: Any, duration: float) -> Any:

@@ -30,7 +30,6 @@ from __future__ import annotations
 
 import statistics
 import sys
-import threading
 import time
 from pathlib import Path
 from typing import Any
@@ -60,19 +59,15 @@ def launch(system: str) -> str:
                         runner_params={"ros_mapping_whitelist": f'"{topic(system)}"'})
 
 
-class Probe:
+class Probe(c.SpinningNode):
     """An rclpy node spinning in a thread of this process: raw subscriptions counting
     the messages of each system, the last one kept."""
 
     def __init__(self) -> None:
-        import rclpy
-        from rclpy.executors import SingleThreadedExecutor
         from sensor_msgs.msg import JointState
         from std_msgs.msg import Float64MultiArray
 
-        self.context = rclpy.Context()
-        rclpy.init(context=self.context)
-        self.node = rclpy.create_node("ros_messages_probe", context=self.context)
+        super().__init__("ros_messages_probe")
         self.count = dict.fromkeys(SYSTEMS, 0)
         self.last: dict[str, bytes] = {}
         self.types = {s: Float64MultiArray if s == "float array" else JointState
@@ -80,10 +75,7 @@ class Probe:
         for system, cls in self.types.items():
             self.node.create_subscription(cls, topic(system), self._take(system), 100,
                                           raw=True)
-        self.executor = SingleThreadedExecutor(context=self.context)
-        self.executor.add_node(self.node)
-        self.thread = threading.Thread(target=self._spin, daemon=True)
-        self.thread.start()
+        self.start()
 
     def _take(self, system: str) -> Any:
         def take(data: bytes) -> None:
@@ -92,25 +84,11 @@ class Probe:
 
         return take
 
-    def _spin(self) -> None:
-        while self.context.ok():
-            try:
-                self.executor.spin_once(timeout_sec=0.1)
-            except Exception:  # shut down under it
-                return
-
     def message(self, system: str) -> Any:
         from rclpy.serialization import deserialize_message
 
         data = self.last.get(system)
         return None if data is None else deserialize_message(data, self.types[system])
-
-    def close(self) -> None:
-        import rclpy
-
-        rclpy.shutdown(context=self.context)
-        self.thread.join(5)
-        self.node.destroy_node()
 
 
 def checked(system: str, msg: Any) -> bool:
