@@ -91,6 +91,15 @@ def stop(proc):
     return out, err
 
 
+def interrupt(proc, timeout=60.0):
+    """SIGINT (Ctrl-C) if ``proc`` still runs, then wait for its end: (stdout, all of
+    stderr). For a ``finally`` that must not raise: its exit status is the test's to
+    check."""
+    if proc.poll() is None:
+        proc.send_signal(signal.SIGINT)
+    return read_rest(proc, timeout=timeout)
+
+
 def end_after_each_test(started, end, *, launchers_first=False):
     """An autouse fixture for a test module (assign it to a name there): after each test,
     ``end`` the processes in the list ``started`` and forget them. ``launchers_first``:

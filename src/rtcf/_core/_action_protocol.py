@@ -15,7 +15,7 @@ from __future__ import annotations
 
 import enum
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, ClassVar
 
 from ._cdr import Serialized
 
@@ -65,6 +65,7 @@ def next_status(status: int, event: int) -> GoalStatus | None:
     return _TABLE.get((status, event))
 
 
+@dataclass(slots=True, eq=False, repr=False)
 class ActionRequest:
     """What reaches an action server's component: a goal, or a request to cancel one.
 
@@ -73,43 +74,36 @@ class ActionRequest:
     ``goal`` the action's ``Goal`` message (None for a cancel).
     """
 
-    __slots__ = ("goal", "goal_id", "iteration", "kind", "uuid")
+    GOAL: ClassVar[int] = GOAL
+    CANCEL: ClassVar[int] = CANCEL
 
-    GOAL = GOAL
-    CANCEL = CANCEL
-
-    def __init__(self, kind: int, goal_id: int, uuid: bytes = b"", goal: Any = None) -> None:
-        self.kind = kind
-        self.goal_id = goal_id
-        self.uuid = uuid
-        self.goal = goal
-        self.iteration = -1  # the iteration the server handed it out in
+    kind: int
+    goal_id: int
+    uuid: bytes = b""
+    goal: Any = None
+    iteration: int = field(default=-1, init=False)  # the iteration the server handed it out in
 
     def __repr__(self) -> str:
         what = "GOAL" if self.kind == GOAL else "CANCEL"
         return f"<ActionRequest {what} {self.goal_id}>"
 
 
+@dataclass(slots=True, eq=False, repr=False)
 class ActionEvent:
     """What an action server's component tells its clients: ``kind`` RESPONSE (to a
     request: ``flags`` say which and whether accepted), FEEDBACK or RESULT, about
     ``goal_id``, with the goal's ``status`` after it and a ``message`` (Feedback,
     Result, or None)."""
 
-    __slots__ = ("flags", "goal_id", "kind", "message", "status")
+    RESPONSE: ClassVar[int] = RESPONSE
+    FEEDBACK: ClassVar[int] = FEEDBACK
+    RESULT: ClassVar[int] = RESULT
 
-    RESPONSE = RESPONSE
-    FEEDBACK = FEEDBACK
-    RESULT = RESULT
-
-    def __init__(
-        self, kind: int, goal_id: int, status: int, message: Any = None, flags: int = 0
-    ) -> None:
-        self.kind = kind
-        self.goal_id = goal_id
-        self.status = status
-        self.message = message
-        self.flags = flags
+    kind: int
+    goal_id: int
+    status: int
+    message: Any = None
+    flags: int = 0
 
     @property
     def accepted(self) -> bool:
