@@ -88,7 +88,9 @@ class Goals:
         """The running goal: feedback at action_monitor_rate, and its end."""
         goal, controller = self.goal, self._controller
         log = controller.log
-        if (controller.iteration - self.goal_iteration) % controller.cfg.feedback_every == 0:
+        # counted in the controller's own runs (its `rate` may be below the loop's)
+        runs = (controller.iteration - self.goal_iteration) // controller.every
+        if runs % controller.cfg.feedback_every == 0:
             self.action.publish_feedback(goal, self.messages.feedback(
                 controller, controller.desired, controller.actual, controller.error))
         tolerances = self.tolerances

@@ -56,19 +56,37 @@ class OdometryPublisher:
         self.pose_covariance = np.diag(covariances[0]).reshape(36)
         self.twist_covariance = np.diag(covariances[1]).reshape(36)
         self.publish_period_ns = publish_period_ns
-        self.odometry_message, self.transform_message, self.tf_message = messages
+        # (TransformStamped, the third, is laid out inside the TFMessage)
+        self.odometry_message, _, self.tf_message = messages
         self.next_publish_ns = -1
 
     def add_ports(self) -> None:
-        """Declare ``~odom`` and ``/tf`` on the component (in its ``configure``), and make
-        a first message of each type: it loads its type support (an import), here and
-        not in the loop."""
+        """Declare ``~odom`` and ``/tf`` on the component (in its ``configure``), and lay
+        their messages out: each an ``rtcf.Serialized`` (its frames and covariances
+        fixed), whose pose, twist and stamp a publication stores through numpy views
+        into its bytes before writing the same object again (in-process readers:
+        docs/ros2.md "Writing messages in the loop")."""
         component, tf_message = self._component, self.tf_message
         self.odom = component.add_output("~odom", self.odometry_message)
         self.tf = component.add_output("/tf", tf_message) if tf_message is not None else None
-        self._odometry_message(0.0, 0.0, 0.0, 1.0)
+        odom = rtcf.Serialized(
+            self.odometry_message, child_frame_id=self.base_frame,
+            **{"header.frame_id": self.odom_frame, "pose.covariance": self.pose_covariance,
+               "twist.covariance": self.twist_covariance, "pose.pose.orientation.w": 1.0})
+        self.odom_message = odom
+        self.position = odom.view("pose.pose.position")  # x, y, z
+        self.orientation = odom.view("pose.pose.orientation")  # x, y, z, w
+        self.linear = odom.view("twist.twist.linear")
+        self.angular = odom.view("twist.twist.angular")
         if tf_message is not None:
-            tf_message(transforms=[self.transform_message()])
+            tf = rtcf.Serialized(tf_message, transforms=[{
+                "header": {"frame_id": self.odom_frame}, "child_frame_id": self.base_frame,
+                "transform": {"rotation": {"w": 1.0}},
+            }])
+            self.tf_out = tf
+            self.translation = tf.view("transforms[0].transform.translation")
+            self.rotation = tf.view("transforms[0].transform.rotation")
+            self.stamp_tf = tf.stamp_setter("transforms[0].header.stamp")
 
     def reset(self) -> None:
         """The next ``publish_due`` publishes."""
@@ -86,31 +104,23 @@ class OdometryPublisher:
         odometry = self._odometry
         half = odometry.heading * 0.5
         qz, qw = math.sin(half), math.cos(half)
-        message = self._odometry_message(odometry.x, odometry.y, qz, qw)
-        self.odom.write(message)
+        x, y = odometry.x, odometry.y
+        odom = self.odom_message
+        stamp_ns = self._component.stamp_ns
+        odom.stamp_ns = stamp_ns
+        position, orientation = self.position, self.orientation
+        position[0] = x
+        position[1] = y
+        orientation[2] = qz
+        orientation[3] = qw
+        self.linear[0] = odometry.linear
+        self.angular[2] = odometry.angular
+        self.odom.write(odom)
         if self.tf is not None:
-            transform = self.transform_message()
-            transform.header.stamp = message.header.stamp
-            transform.header.frame_id = self.odom_frame
-            transform.child_frame_id = self.base_frame
-            transform.transform.translation.x = odometry.x
-            transform.transform.translation.y = odometry.y
-            transform.transform.rotation.z = qz
-            transform.transform.rotation.w = qw
-            self.tf.write(self.tf_message(transforms=[transform]))
-
-    def _odometry_message(self, x: float, y: float, qz: float, qw: float) -> Any:
-        # a new message per write (publish_rate, 50 Hz): an in-process reader may
-        # still hold the last one
-        message = self.odometry_message()
-        self._component.stamp_to(message.header.stamp)
-        message.header.frame_id = self.odom_frame
-        message.child_frame_id = self.base_frame
-        pose = message.pose
-        pose.pose.position.x, pose.pose.position.y = x, y
-        pose.pose.orientation.z, pose.pose.orientation.w = qz, qw
-        pose.covariance = self.pose_covariance
-        twist = message.twist
-        twist.twist.linear.x, twist.twist.angular.z = self._odometry.linear, self._odometry.angular
-        twist.covariance = self.twist_covariance
-        return message
+            self.stamp_tf(stamp_ns)
+            translation, rotation = self.translation, self.rotation
+            translation[0] = x
+            translation[1] = y
+            rotation[2] = qz
+            rotation[3] = qw
+            self.tf.write(self.tf_out)

@@ -19,7 +19,7 @@ import rtcf
 
 from ._jtc_goals import Goals
 from ._jtc_messages import Messages
-from ._jtc_settings import COMMANDS, read_settings
+from ._jtc_settings import read_settings
 from ._message_types import message_class
 from ._tolerances import Checker
 from ._trajectory import Trajectory, check, duration_s, from_message, hold
@@ -38,7 +38,6 @@ class JointTrajectoryController(rtcf.Component):
         for part in (FollowJointTrajectory.Feedback, FollowJointTrajectory.Result):
             part()  # their first message runs their imports: here, not in the loop
         JointTrajectory = message_class(self, "trajectory_msgs.msg", "JointTrajectory")
-        JointTrajectoryPoint = message_class(self, "trajectory_msgs.msg", "JointTrajectoryPoint")
         self.cfg = cfg = read_settings(self)
         self.joints = joints = cfg.joints
         self.pid = cfg.pid
@@ -52,8 +51,11 @@ class JointTrajectoryController(rtcf.Component):
         # one goal runs at a time: a newer one preempts it (accept(preempt=...))
         action = self.add_action_server(
             "~/follow_joint_trajectory", FollowJointTrajectory, max_goals=1)
-        self.messages = Messages(joints, FollowJointTrajectory, JointTrajectoryControllerState,
-                                 JointTrajectoryPoint)
+        self.messages = Messages(
+            joints, FollowJointTrajectory, JointTrajectoryControllerState,
+            has_velocity="velocity" in self.state_in,
+            has_acceleration="acceleration" in self.state_in,
+            commands=cfg.command_interfaces)
         self.goals = Goals(self, action, self.messages)
 
         # preallocated: the state, the samples, the error and the commands
@@ -156,7 +158,8 @@ class JointTrajectoryController(rtcf.Component):
             self.log.error("holding position: %s", "goal_time exceeded" if late
                            else f"cmd_timeout {self.cfg.cmd_timeout:g} s")
             self.hold()
-        if self.cfg.state_every and self.iteration % self.cfg.state_every == 0:
+        # the rates count this controller's runs (its `rate` may be below the loop's)
+        if self.cfg.state_every and (self.iteration // self.every) % self.cfg.state_every == 0:
             self._publish_state(t - (trajectory.start or 0.0))
 
     def _command(self, error: np.ndarray) -> None:
@@ -222,8 +225,5 @@ class JointTrajectoryController(rtcf.Component):
         return Checker.describe(self.error, tolerance, joint, self.joints[joint])
 
     def _publish_state(self, since: float) -> None:
-        output = [self.written.get(f"{name}_command") for name in COMMANDS]
         self.state_out.write(self.messages.state(
-            self, self.desired, self.actual, self.error, output,
-            has_velocity="velocity" in self.state_in,
-            has_acceleration="acceleration" in self.state_in, since=since))
+            self, self.desired, self.actual, self.error, self.written, since))

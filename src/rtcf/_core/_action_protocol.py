@@ -17,6 +17,8 @@ import enum
 from dataclasses import dataclass, field
 from typing import Any, ClassVar
 
+from ._cdr import Serialized
+
 
 class GoalStatus(enum.IntEnum):
     """A goal's state, with the numbers of ``action_msgs/msg/GoalStatus``."""
@@ -163,10 +165,16 @@ class ActionEndpoint:
                     record._enter(iteration, ACCEPTED)
                     record._enter(iteration, EXECUTING)
         elif event.kind == FEEDBACK:
-            record.feedback.append((iteration, event.message))
+            record.feedback.append((iteration, _kept(event.message)))
         else:
-            record.result = event.message
+            record.result = _kept(event.message)
             record._enter(iteration, event.status)
+
+
+def _kept(message: Any) -> Any:
+    """A message as it was when written: a Serialized is rewritten in place by its
+    writer, so its rosidl message is kept."""
+    return message.to_message() if type(message) is Serialized else message
 
 
 def goal_uuid(goal_id: int) -> bytes:
