@@ -46,6 +46,7 @@ SYSTEMS = {  # name -> component class in _message_components
     "float array": "FloatArray",
 }
 BUDGET = 2.0
+LATE_JOINERS = 100  # messages the runner keeps for a subscriber that joins late
 
 
 def topic(system: str) -> str:
@@ -55,8 +56,12 @@ def topic(system: str) -> str:
 def launch(system: str) -> str:
     node = c.Node("arm", "_message_components", SYSTEMS[system],
                   remaps=[("joint_states", topic(system))])
+    # transient_local: a probe that discovers the runner late (a loaded machine, a
+    # 2 s --quick run) still gets the last LATE_JOINERS messages rather than none
     return c.launch_xml([node], frequency=FREQUENCY,
-                        runner_params={"ros_mapping_whitelist": f'"{topic(system)}"'})
+                        runner_params={"ros_mapping_whitelist": f'"{topic(system)}"',
+                                       "ros_qos_durability": "transient_local",
+                                       "ros_qos_depth": str(LATE_JOINERS)})
 
 
 class Probe(c.SpinningNode):
@@ -64,6 +69,7 @@ class Probe(c.SpinningNode):
     the messages of each system, the last one kept."""
 
     def __init__(self) -> None:
+        from rclpy.qos import DurabilityPolicy, QoSProfile
         from sensor_msgs.msg import JointState
         from std_msgs.msg import Float64MultiArray
 
@@ -72,8 +78,9 @@ class Probe(c.SpinningNode):
         self.last: dict[str, bytes] = {}
         self.types = {s: Float64MultiArray if s == "float array" else JointState
                       for s in SYSTEMS}
+        qos = QoSProfile(depth=LATE_JOINERS, durability=DurabilityPolicy.TRANSIENT_LOCAL)
         for system, cls in self.types.items():
-            self.node.create_subscription(cls, topic(system), self._take(system), 100,
+            self.node.create_subscription(cls, topic(system), self._take(system), qos,
                                           raw=True)
         self.start()
 
