@@ -37,6 +37,7 @@ if TYPE_CHECKING:  # the two have the same API: type-check against the Python on
     from ._interpreted import (
         Calculation,
         CompiledPlans,
+        DeadlineGate,
         Handover,
         HeartbeatWatch,
         InputPort,
@@ -58,6 +59,7 @@ else:
     CompiledPlans = _module.CompiledPlans
     RingGate = _module.RingGate
     HeartbeatWatch = _module.HeartbeatWatch
+    DeadlineGate = _module.DeadlineGate
     WordTap = _module.WordTap  # None on the Python path
     Handover = _module.Handover  # None on the Python path
     set_flow_status = _module.set_flow_status
