@@ -430,6 +430,35 @@ def test_the_compiled_deadline_gate_refuses_what_is_not_an_input_or_words() -> N
         _compiled.DeadlineGate(st, (inp,), array("d", [0.0]), words, print)
 
 
+def test_the_compiled_deadline_gate_leaks_nothing_and_dies_in_a_cycle() -> None:
+    out, inp = _ports(_compiled)
+    st = _compiled.LoopState(100.0)
+    inp._deadline_ns = 1
+    seq, due = array("q", [0]), array("q", [0])
+
+    class Check:  # the watch's check: it holds the gate, the gate holds it
+        gate: Any = None
+
+        def __call__(self) -> None:
+            due[0] = sys.maxsize
+
+    before = sys.getrefcount(inp), sys.getrefcount(st)
+    check = Check()
+    check.gate = _compiled.DeadlineGate(st, (inp,), seq, due, check)
+    with pytest.raises(BufferError):  # it holds the words
+        seq.append(0)
+    gate = check.gate
+    for i in range(100_000):
+        st.time_ns = i
+        if i % 3 == 0:
+            out.write(1.0)
+        gate()
+    del gate, check  # the cycle: only the collector frees it
+    gc.collect()
+    assert (sys.getrefcount(inp), sys.getrefcount(st)) == before
+    seq.append(0)  # and it let go of the words
+
+
 @pytest.mark.parametrize("m", MODULES)
 def test_no_reference_is_leaked_by_a_million_writes_and_reads(m: ModuleType) -> None:
     out, inp = _ports(m)
