@@ -19,9 +19,10 @@ total time past its deadline are what timing.json, the run's summary and
 /diagnostics report.
 
 The per-iteration look is a :class:`DeadlineGate` (compiled, or its Python twin): it
-keeps each input's last seq and due time in two int64 arrays and calls :meth:`check`
-only in an iteration where something changes (an input past its deadline has a value
-again, or one passes its due time), so the steady state costs no Python call.
+keeps each input's last seq and due time in two lists of words (int64 words for the
+compiled one) and calls :meth:`check` only in an iteration where something changes
+(an input past its deadline has a value again, or one passes its due time), so the
+compiled loop's steady state costs no Python call.
 """
 
 
@@ -34,7 +35,7 @@ from typing import TYPE_CHECKING, Any
 
 from ._errors import ComponentError
 from ._faults import DEADLINE_CONTINUE, DEADLINE_DEACTIVATE, DEADLINE_STOP
-from ._hotpath import DeadlineGate
+from ._hotpath import DeadlineGate, gate_words
 from ._lifecycle import ACTIVE
 from ._log import LogLevel
 
@@ -115,8 +116,8 @@ class DeadlineWatch:
     misses: Any = field(default_factory=lambda: array("q", [0]))
     _watched: tuple[_Track, ...] = ()
     # per watched input (in _watched's order): its slot's seq last seen, its due time
-    seq: Any = field(default_factory=lambda: array("q"))
-    due: Any = field(default_factory=lambda: array("q"))
+    seq: Any = field(default_factory=lambda: gate_words([]))
+    due: Any = field(default_factory=lambda: gate_words([]))
     gate: Any = None  # the loop's feeder (a DeadlineGate): calls check when due
 
     def refresh(self) -> bool:
@@ -146,8 +147,8 @@ class DeadlineWatch:
         self.bits[0] = bits
         if self.gate is not None:
             self.gate.release()
-        self.seq = array("q", [t.seq for t in self._watched])
-        self.due = array("q", [t.due_ns for t in self._watched])
+        self.seq = gate_words([t.seq for t in self._watched])
+        self.due = gate_words([t.due_ns for t in self._watched])
         self.gate = DeadlineGate(
             self.state, tuple(t.port for t in self._watched), self.seq, self.due, self.check
         )
