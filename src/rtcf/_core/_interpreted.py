@@ -373,7 +373,8 @@ class DeadlineGate:
             return None
         t = self._state.time_ns
         due = self._due
-        for k, port in enumerate(self._ports):
+        k = 0  # (no enumerate: no tuple per input and iteration)
+        for port in self._ports:
             s = port._slot.seq
             if s != seq[k]:
                 if port._expired:  # back: the watch's check takes it from here
@@ -382,6 +383,7 @@ class DeadlineGate:
                 due[k] = t + port._deadline_ns
             elif t > due[k]:
                 return self.fn()
+            k += 1
         return None
 
     def release(self) -> None:
