@@ -2,7 +2,9 @@
 ros2): sensor_msgs/JointState on /joint_states at 100 Hz stamped on the loop's grid,
 and a trajectory_msgs/JointTrajectory sent from this process to
 /arm_controller/joint_trajectory (joint_trajectory_controller's topic) is followed: the
-arm reaches its goal. A trajectory that cannot be followed is logged and ignored."""
+arm reaches its goal. A trajectory that cannot be followed is logged and ignored.
+In-process on the simulated clock (rtcf.testing), trajectories that stop coming
+mid-motion pass their input's deadline, and the arm ends held where the plan ends."""
 
 
 import numpy as np
@@ -10,6 +12,8 @@ import pytest
 from builtin_interfaces.msg import Duration
 from sensor_msgs.msg import JointState  # fails loudly where it is missing
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
+
+from rtcf.testing import SILENCE, run_launch
 
 from .._proc import interrupt, wait_for
 from .conftest import start_rtcf
@@ -68,3 +72,35 @@ def test_joint_states_go_out_and_a_trajectory_sent_is_followed(ros_node, file):
     assert "Found remap rule" not in err, err  # launch arguments are not rclpy's remaps
     assert "joint_trajectory ignored: its joint_names ['elbow'] are not" in err, err
     assert "following a trajectory of 1 points over 1.00 s" in err
+
+
+@pytest.mark.parametrize("file", ["arm.launch", "arm.launch.xml"])
+def test_trajectories_that_stop_mid_motion_pass_their_deadline_and_the_plan_end_holds(file):
+    """A client streams a trajectory to GOAL (1 s from each arrival) every 20 ms until
+    t = 0.28 s, then goes silent mid-motion: arm.launch's deadline of 0.5 s applies at
+    the first iteration past 0.78 s, on_deadline continue, and the trajectory finishes
+    its last plan and holds its end; HoldPosition (which would hold where the arm is)
+    never runs."""
+    names = ["joint1", "joint2", "joint3"]
+    goal = np.array([GOAL[n] for n in names])
+    sent = JointTrajectory(joint_names=names, points=[JointTrajectoryPoint(
+        positions=list(goal), time_from_start=Duration(sec=1))])
+    trace = run_launch(
+        f"rtcf_examples {file}", 2000, args={"ros_interfaces": "true"},
+        inputs={"/arm_controller/joint_trajectory":
+                lambda k, t: sent if k <= 280 and k % 20 == 0 else SILENCE},
+    )
+    (event,) = trace.result.deadline_events
+    port = "/arm/trajectory.joint_trajectory"
+    assert (event.port, event.deadline, event.iteration, event.action) == (
+        port, 0.5, 781, "continue")
+    assert (event.last_arrival, event.back_iteration) == (0.28, -1)
+    assert trace.result.deadlines[port]["past_deadline_now"]
+    reference = trace.outputs["/arm/position_reference"]
+    assert np.abs(reference[781] - goal).max() > 0.01  # mid-motion when it applied
+    # the last plan, from t = 0.28 s (the trajectory's next 250 Hz iteration), ends
+    # before 1.29 s; from then on the reference is its last point, and the arm there
+    assert all(np.array_equal(r, goal) for r in reference[1290:])
+    q = np.array(trace.outputs["/arm/position"])
+    assert np.abs(q[1700:] - goal).max() < 5e-3
+    assert trace.ran.get("/arm/hold", []) == []

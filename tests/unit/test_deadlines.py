@@ -13,6 +13,7 @@ from typing import Any
 import pytest
 
 from rtcf import Component, ComponentError, ComponentSpec
+from rtcf._core import _deadlines, _interpreted
 from rtcf._core._clock import SimClock
 from rtcf._core._errors import ConfigurationError
 from rtcf._core._faults import FailurePolicy
@@ -253,3 +254,75 @@ def test_diagnostics_name_the_inputs_past_their_deadline_and_warn() -> None:
     assert values["input deadlines passed"] == "3"
     quiet = health("/rt_runner", dataclasses.replace(status, past_deadline=()), TimingAggregate())
     assert not quiet.warn and dict(quiet.values)["inputs past their deadline"] == "none"
+
+
+class Two(Component):
+    """Two inputs with deadlines: a deadline that passes while the other one has taken
+    the component out is decided when it is back (the gate keeps asking till then)."""
+
+    def configure(self) -> None:
+        self.cmd = self.add_input("cmd", float, deadline=0.025)
+        self.aux = self.add_input("aux", float, deadline=0.04)
+        self.u = self.add_output("u", float)
+        self.statuses: list[tuple[int, FlowStatus, FlowStatus]] = []
+
+    def update(self) -> None:
+        self.statuses.append((self.iteration, self.cmd.status, self.aux.status))
+        self.u.write((self.cmd.read() or 0.0) + (self.aux.read() or 0.0))
+
+
+def _every_iteration(state: Any, ports: Any, seq: Any, due: Any, fn: Any) -> Any:
+    return fn  # what the watch was before its gate: the full check in every iteration
+
+
+_CHECK = _deadlines.DeadlineWatch.check
+GATES = [
+    pytest.param(_deadlines.DeadlineGate, id="the-loops-gate"),
+    pytest.param(_interpreted.DeadlineGate, id="python-twin"),
+]
+
+
+def _traced(monkeypatch: pytest.MonkeyPatch, gate: Any) -> tuple[Any, list[int]]:
+    """A run of Two (deactivate, /hold its fallback) with the given gate; and the
+    iterations in which the watch's full check ran."""
+    checks: list[int] = []
+
+    def counted(watch: _deadlines.DeadlineWatch) -> None:
+        checks.append(watch.state.iteration)
+        _CHECK(watch)
+
+    monkeypatch.setattr(_deadlines, "DeadlineGate", gate)
+    monkeypatch.setattr(_deadlines.DeadlineWatch, "check", counted)
+    S = SILENCE
+    cmd = [1.0] * 3 + [S] * 6 + [2.0] * 8 + [S] * 6 + [3.0] * 2
+    aux = [1.0] * 2 + [S] * 10 + [1.0] * 2 + [S] * 11
+    specs = [
+        ComponentSpec("two", Two, policy=FailurePolicy(on_deadline="deactivate",
+                                                       fallback="/hold")),
+        ComponentSpec("hold", Hold),
+    ]
+    trace = run_components(specs, len(cmd), frequency=HZ, inputs={"/cmd": cmd, "/aux": aux})
+    return trace, checks
+
+
+@pytest.mark.parametrize("gate", GATES)
+def test_the_gate_decides_as_the_full_check_in_every_iteration_and_calls_it_rarely(
+    monkeypatch: pytest.MonkeyPatch, gate: Any
+) -> None:
+    reference, every = _traced(monkeypatch, _every_iteration)
+    trace, checks = _traced(monkeypatch, gate)
+    assert every == list(range(25))
+    # iteration by iteration: the same statuses, outputs, schedule, events and totals
+    assert trace.components["/two"].statuses == reference.components["/two"].statuses
+    assert trace.outputs == reference.outputs and trace.ran == reference.ran
+    assert trace.result.deadline_events == reference.result.deadline_events
+    assert trace.result.deadlines == reference.result.deadlines
+    events = [(e.port, e.iteration, e.back_iteration) for e in trace.result.deadline_events]
+    # /cmd (last at 20 ms) passes 25 ms at 5: out. /aux (last at 10 ms) passes 40 ms at
+    # 6, but its component is out: decided at 9, as /cmd brings it back. /cmd passes
+    # its due time again at 19 while /aux has it out: no second time
+    assert events == [("/two.cmd", 5, 9), ("/two.aux", 9, 12), ("/two.aux", 18, -1)]
+    assert trace.ran["/hold"] == [5, 6, 7, 8, 9, 10, 11, 18, 19, 20, 21, 22, 23, 24]
+    # the full check only where something changed, and while an input past its due time
+    # waits for its component to be back (6-8, 19-22)
+    assert checks == [5, 6, 7, 8, 9, 12, 18, 19, 20, 21, 22]

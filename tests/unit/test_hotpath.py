@@ -374,6 +374,91 @@ def test_a_ring_gate_calls_only_when_the_counters_differ(m: ModuleType) -> None:
     assert calls == [1]
 
 
+def _gate_trace(m: ModuleType) -> list[tuple[int, bool, list[int], list[int]]]:
+    """A deadline gate of the module over two inputs, 12 iterations: per iteration,
+    whether it called its fn, and its seqs and due times after."""
+    out, inp = _ports(m)
+    out2, inp2 = _ports(m)
+    st = m.LoopState(100.0)
+    inp._deadline_ns, inp2._deadline_ns = 25_000_000, 40_000_000
+    never = sys.maxsize
+    seq, due = array("q", [0, 0]), array("q", [never, never])
+    called: list[int] = []
+
+    def fn() -> None:  # what the watch does, in short: expire, or clear
+        called.append(st.iteration)
+        for k, p in enumerate((inp, inp2)):
+            if p._slot.seq != seq[k]:
+                seq[k], due[k], p._expired = p._slot.seq, st.time_ns + p._deadline_ns, False
+            elif st.time_ns > due[k]:
+                p._expired, due[k] = True, never
+
+    gate = m.DeadlineGate(st, (inp, inp2), seq, due, fn)
+    trace = []
+    for i in range(12):
+        st.iteration, st.time_ns = i, i * 10_000_000
+        if i < 3 or i >= 9:
+            out.write(float(i))
+        if i < 2:
+            out2.write(float(i))
+        gate()
+        trace.append((i, called[-1:] == [i], list(seq), list(due)))
+    gate.release()
+    gate()  # released: does nothing
+    assert len(called) == len([t for t in trace if t[1]])
+    return trace
+
+
+def test_a_deadline_gate_calls_only_when_an_input_passes_its_due_time_or_comes_back() -> None:
+    compiled, python = _gate_trace(_compiled), _gate_trace(_interpreted)
+    assert compiled == python  # side by side, iteration by iteration
+    # /in: last at 20 ms, past 45 ms at 5, back at 9; /in2: last at 10 ms, past 50 at 6
+    assert [i for i, c, _, _ in compiled if c] == [5, 6, 9]
+    assert compiled[2][2:] == ([3, 2], [45_000_000, 50_000_000])
+    assert compiled[9][2:] == ([4, 2], [115_000_000, sys.maxsize])
+
+
+def test_the_compiled_deadline_gate_refuses_what_is_not_an_input_or_words() -> None:
+    out, inp = _ports(_compiled)
+    st = _compiled.LoopState(100.0)
+    words = array("q", [0])
+    with pytest.raises(TypeError, match="InputPorts"):
+        _compiled.DeadlineGate(st, (out,), words, words, print)
+    with pytest.raises(IndexError, match="fewer words than ports"):
+        _compiled.DeadlineGate(st, (inp, inp), words, words, print)
+    with pytest.raises(TypeError):
+        _compiled.DeadlineGate(st, (inp,), array("d", [0.0]), words, print)
+
+
+def test_the_compiled_deadline_gate_leaks_nothing_and_dies_in_a_cycle() -> None:
+    out, inp = _ports(_compiled)
+    st = _compiled.LoopState(100.0)
+    inp._deadline_ns = 1
+    seq, due = array("q", [0]), array("q", [0])
+
+    class Check:  # the watch's check: it holds the gate, the gate holds it
+        gate: Any = None
+
+        def __call__(self) -> None:
+            due[0] = sys.maxsize
+
+    before = sys.getrefcount(inp), sys.getrefcount(st)
+    check = Check()
+    check.gate = _compiled.DeadlineGate(st, (inp,), seq, due, check)
+    with pytest.raises(BufferError):  # it holds the words
+        seq.append(0)
+    gate = check.gate
+    for i in range(100_000):
+        st.time_ns = i
+        if i % 3 == 0:
+            out.write(1.0)
+        gate()
+    del gate, check  # the cycle: only the collector frees it
+    gc.collect()
+    assert (sys.getrefcount(inp), sys.getrefcount(st)) == before
+    seq.append(0)  # and it let go of the words
+
+
 @pytest.mark.parametrize("m", MODULES)
 def test_no_reference_is_leaked_by_a_million_writes_and_reads(m: ModuleType) -> None:
     out, inp = _ports(m)

@@ -16,14 +16,15 @@
  *                 touch), built where the executor builds its plans: the loop takes them
  *   WordTap       a recorded float, int or bool output: the write pushes its record
  *   Handover      a value crossing lanes: a send, a receive, a LET lane's output
- *   RingGate, HeartbeatWatch
- *                 the worker's feeders in every iteration: two word reads each in the
- *                 common case (no control record waits; the supervisor's heartbeat moved)
+ *   RingGate, HeartbeatWatch, DeadlineGate
+ *                 the loop's feeders in every iteration: a few word reads each in the
+ *                 common case (no control record waits; the supervisor's heartbeat moved;
+ *                 no watched input came back or passed its deadline)
  *
  * One module built from one file per concept and one internal header, _compiled.h,
  * as CPython builds Modules/_io/: _compiled_slot.c, _compiled_loop_state.c,
  * _compiled_ports.c, _compiled_plans.c, _compiled_calculation.c, _compiled_word_tap.c,
- * _compiled_handover.c and _compiled_feeders.c (RingGate, HeartbeatWatch). This file
+ * _compiled_handover.c and _compiled_feeders.c (RingGate, HeartbeatWatch, DeadlineGate). This file
  * holds the module itself: its state, its two functions and its initialisation.
  *
  * rtcf._core._interpreted is the same in Python, line for line: the path used where
@@ -127,6 +128,7 @@ PyInit__compiled(void)
         PyType_Ready(&InputPortType) < 0 || PyType_Ready(&CompiledPlansType) < 0 ||
         PyType_Ready(&CalculationType) < 0 ||
         PyType_Ready(&RingGateType) < 0 || PyType_Ready(&HeartbeatType) < 0 ||
+        PyType_Ready(&DeadlineGateType) < 0 ||
         PyType_Ready(&WordTapType) < 0 || PyType_Ready(&HandoverType) < 0)
         return NULL;
     str_plans = PyUnicode_InternFromString("plans");
@@ -157,6 +159,7 @@ PyInit__compiled(void)
         PyModule_AddObjectRef(m, "Calculation", (PyObject *)&CalculationType) < 0 ||
         PyModule_AddObjectRef(m, "RingGate", (PyObject *)&RingGateType) < 0 ||
         PyModule_AddObjectRef(m, "HeartbeatWatch", (PyObject *)&HeartbeatType) < 0 ||
+        PyModule_AddObjectRef(m, "DeadlineGate", (PyObject *)&DeadlineGateType) < 0 ||
         PyModule_AddObjectRef(m, "WordTap", (PyObject *)&WordTapType) < 0 ||
         PyModule_AddObjectRef(m, "Handover", (PyObject *)&HandoverType) < 0) {
         Py_DECREF(m);

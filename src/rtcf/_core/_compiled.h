@@ -157,7 +157,7 @@ RTCF_INTERNAL PyObject *compiled_plans_new(PyObject *plans);
 RTCF_INTERNAL extern PyTypeObject SlotType, LoopStateType;
 RTCF_INTERNAL extern PyTypeObject PortType, OutputPortType, InputPortType;
 RTCF_INTERNAL extern PyTypeObject CompiledPlansType, CalculationType;
-RTCF_INTERNAL extern PyTypeObject RingGateType, HeartbeatType;
+RTCF_INTERNAL extern PyTypeObject RingGateType, HeartbeatType, DeadlineGateType;
 RTCF_INTERNAL extern PyTypeObject WordTapType, HandoverType;
 
 /* the module's state (_compiled.c): FlowStatus's members (rtcf._core._ports hands them

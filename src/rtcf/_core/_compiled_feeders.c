@@ -1,6 +1,7 @@
-/* rtcf._core._compiled: the worker's feeders in every iteration, RingGate and
- * HeartbeatWatch: two word reads each in the common case (no control record waits; the
- * supervisor's heartbeat moved). */
+/* rtcf._core._compiled: the loop's feeders in every iteration, RingGate,
+ * HeartbeatWatch and DeadlineGate: a few word reads each in the common case (no control
+ * record waits; the supervisor's heartbeat moved; no watched input came back or passed
+ * its deadline). */
 
 #include "_compiled.h"
 
@@ -212,4 +213,137 @@ PyTypeObject HeartbeatType = {
     .tp_dealloc = (destructor)Heartbeat_dealloc,
     .tp_methods = Heartbeat_methods,
     .tp_members = Heartbeat_members,
+};
+
+/* ---- DeadlineGate ------------------------------------------------------------------- */
+
+/* The loop's last feeder where inputs have deadlines (rtcf._core._deadlines): per
+ * watched input, one look at its slot and one comparison. It keeps each input's last
+ * seq and due time itself (a new value: due = now + deadline) and calls fn, the
+ * watch's full check in Python, only in an iteration where one that was past its
+ * deadline has a value again or one passed its due time. */
+typedef struct {
+    PyObject_HEAD
+    LoopStateObject *state;
+    PyObject *ports; /* a tuple of InputPort */
+    Py_buffer seq, due;
+    int held;
+    PyObject *fn;
+} DeadlineGateObject;
+
+static void
+DeadlineGate_let_go(DeadlineGateObject *g)
+{
+    if (g->held) {
+        PyBuffer_Release(&g->seq);
+        PyBuffer_Release(&g->due);
+        g->held = 0;
+    }
+}
+
+static int
+DeadlineGate_init(DeadlineGateObject *g, PyObject *args, PyObject *kwds)
+{
+    static char *kwlist[] = {"state", "ports", "seq", "due", "fn", NULL};
+    PyObject *state, *ports, *seq, *due, *fn;
+    if (!PyArg_ParseTupleAndKeywords(args, kwds, "O!O!OOO:DeadlineGate", kwlist,
+                                     &LoopStateType, &state, &PyTuple_Type, &ports, &seq, &due,
+                                     &fn))
+        return -1;
+    DeadlineGate_let_go(g);
+    Py_ssize_t n = PyTuple_GET_SIZE(ports);
+    for (Py_ssize_t k = 0; k < n; k++)
+        if (!PyObject_TypeCheck(PyTuple_GET_ITEM(ports, k), &InputPortType)) {
+            PyErr_SetString(PyExc_TypeError, "DeadlineGate: the ports must be InputPorts");
+            return -1;
+        }
+    if (get_words(seq, &g->seq, "the seqs seen") < 0)
+        return -1;
+    if (get_words(due, &g->due, "the due times") < 0) {
+        PyBuffer_Release(&g->seq);
+        return -1;
+    }
+    g->held = 1;
+    if (g->seq.len / 8 < n || g->due.len / 8 < n) {
+        DeadlineGate_let_go(g);
+        PyErr_SetString(PyExc_IndexError, "DeadlineGate: fewer words than ports");
+        return -1;
+    }
+    Py_XSETREF(g->state, (LoopStateObject *)Py_NewRef(state));
+    Py_XSETREF(g->ports, Py_NewRef(ports));
+    Py_XSETREF(g->fn, Py_NewRef(fn));
+    return 0;
+}
+
+static PyObject *
+DeadlineGate_call(DeadlineGateObject *g, PyObject *args, PyObject *kwds)
+{
+    if (!g->held)
+        Py_RETURN_NONE;
+    long long t = g->state->time_ns;
+    long long *seq = (long long *)g->seq.buf, *due = (long long *)g->due.buf;
+    Py_ssize_t n = PyTuple_GET_SIZE(g->ports);
+    for (Py_ssize_t k = 0; k < n; k++) {
+        PortObject *p = (PortObject *)PyTuple_GET_ITEM(g->ports, k);
+        long long s = p->slot->seq;
+        if (s != seq[k]) {
+            if (p->expired) /* back: the watch's check takes it from here */
+                return PyObject_CallNoArgs(g->fn);
+            seq[k] = s;
+            due[k] = t + p->deadline_ns;
+        } else if (t > due[k])
+            return PyObject_CallNoArgs(g->fn);
+    }
+    Py_RETURN_NONE;
+}
+
+static PyObject *
+DeadlineGate_release(DeadlineGateObject *g, PyObject *Py_UNUSED(ignored))
+{
+    DeadlineGate_let_go(g);
+    Py_RETURN_NONE;
+}
+
+static int
+DeadlineGate_traverse(DeadlineGateObject *g, visitproc visit, void *arg)
+{
+    Py_VISIT(g->state);
+    Py_VISIT(g->ports);
+    Py_VISIT(g->fn);
+    return 0;
+}
+
+static int
+DeadlineGate_clear(DeadlineGateObject *g)
+{
+    DeadlineGate_let_go(g);
+    Py_CLEAR(g->state);
+    Py_CLEAR(g->ports);
+    Py_CLEAR(g->fn);
+    return 0;
+}
+
+static PyMethodDef DeadlineGate_methods[] = {
+    {"release", (PyCFunction)DeadlineGate_release, METH_NOARGS,
+     "release()\n--\n\nLet go of the words (calls do nothing after)."},
+    {NULL},
+};
+
+static PyMemberDef DeadlineGate_members[] = {
+    {"fn", T_OBJECT, offsetof(DeadlineGateObject, fn), READONLY, "What a call runs when due."},
+    {NULL},
+};
+
+PyTypeObject DeadlineGateType = {
+    RTCF_TYPE("rtcf._core._compiled.DeadlineGate", DeadlineGateObject,
+              "DeadlineGate(state, ports, seq, due, fn): per port k, a new value sets "
+              "seq[k] and due[k] = state.time_ns + its deadline; calls fn when one past "
+              "its deadline has a value again or state.time_ns > due[k]."),
+    .tp_flags = Py_TPFLAGS_DEFAULT | Py_TPFLAGS_HAVE_GC,
+    .tp_new = PyType_GenericNew,
+    .tp_init = (initproc)DeadlineGate_init,
+    .tp_call = (ternaryfunc)DeadlineGate_call,
+    RTCF_GC_SLOTS(DeadlineGate),
+    .tp_methods = DeadlineGate_methods,
+    .tp_members = DeadlineGate_members,
 };

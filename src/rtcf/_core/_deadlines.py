@@ -17,7 +17,14 @@ Each time a deadline applies is a :class:`DeadlineEvent` (the iteration it appli
 in, and the iteration and time the input came back), and each input's count and
 total time past its deadline are what timing.json, the run's summary and
 /diagnostics report.
+
+The per-iteration look is a :class:`DeadlineGate` (compiled, or its Python twin): it
+keeps each input's last seq and due time in two lists of words (int64 words for the
+compiled one) and calls :meth:`check` only in an iteration where something changes
+(an input past its deadline has a value again, or one passes its due time), so the
+compiled loop's steady state costs no Python call.
 """
+
 
 from __future__ import annotations
 
@@ -28,6 +35,7 @@ from typing import TYPE_CHECKING, Any
 
 from ._errors import ComponentError
 from ._faults import DEADLINE_CONTINUE, DEADLINE_DEACTIVATE, DEADLINE_STOP
+from ._hotpath import DeadlineGate, gate_words
 from ._lifecycle import ACTIVE
 from ._log import LogLevel
 
@@ -79,10 +87,10 @@ class _Track:
     port: InputPort[Any]
     entry: Loaded
     deadline_ns: int
-    slot: Any = None  # the port's slot (taken again before each run: wiring may change it)
-    seq: int = 0  # the slot's seq last seen
-    # last arrival + deadline: past it, the deadline applies (NEVER: nothing yet, or
-    # past it already)
+    # between runs (in a run, DeadlineWatch.seq and .due hold them): the slot's seq
+    # last seen, and last arrival + deadline: past it, the deadline applies (NEVER:
+    # nothing yet, or past it already)
+    seq: int = 0
     due_ns: int = sys.maxsize
     since_ns: int = 0  # when it expired
     count: int = 0
@@ -107,10 +115,16 @@ class DeadlineWatch:
     bits: Any = field(default_factory=lambda: array("q", [0]))
     misses: Any = field(default_factory=lambda: array("q", [0]))
     _watched: tuple[_Track, ...] = ()
+    # per watched input (in _watched's order): its slot's seq last seen, its due time
+    seq: Any = field(default_factory=lambda: gate_words([]))
+    due: Any = field(default_factory=lambda: gate_words([]))
+    gate: Any = None  # the loop's feeder (a DeadlineGate): calls check when due
 
     def refresh(self) -> bool:
         """Watch the inputs with a deadline of the components now loaded (before a run;
         a launch file's ``deadline/NAME`` was applied at load). True if any."""
+        for k, track in enumerate(self._watched):  # what the last run saw
+            track.seq, track.due_ns = self.seq[k], self.due[k]
         tracks: dict[int, _Track] = {}
         for entry in self.components.entries.values():
             for port in entry.component.inputs.values():
@@ -123,7 +137,6 @@ class DeadlineWatch:
                 if track.due_ns != NEVER:  # a deadline the launch file changed
                     track.due_ns += port._deadline_ns - track.deadline_ns
                 track.entry, track.deadline_ns = entry, port._deadline_ns
-                track.slot = port._slot
                 tracks[id(port)] = track
         self.tracks = tracks
         self._watched = tuple(tracks.values())
@@ -132,6 +145,13 @@ class DeadlineWatch:
             track.bit = 1 << k if k < 63 else 0
             bits |= track.bit if track.port._expired else 0
         self.bits[0] = bits
+        if self.gate is not None:
+            self.gate.release()
+        self.seq = gate_words([t.seq for t in self._watched])
+        self.due = gate_words([t.due_ns for t in self._watched])
+        self.gate = DeadlineGate(
+            self.state, tuple(t.port for t in self._watched), self.seq, self.due, self.check
+        )
         return bool(tracks)
 
     def names(self) -> list[str]:
@@ -140,18 +160,19 @@ class DeadlineWatch:
         return [t.port.qualified_name for t in self._watched]
 
     def check(self) -> None:
-        """At an iteration boundary: arrivals, then deadlines passed (the loop's last
-        feeder: per input, one look at its slot and one comparison)."""
+        """At an iteration boundary: arrivals, then deadlines passed (what the gate
+        calls when something changes; the same look it takes, and what follows)."""
         t = self.state.time_ns
-        for track in self._watched:
-            seq = track.slot.seq
-            if seq != track.seq:
-                track.seq = seq
-                track.due_ns = t + track.deadline_ns
+        seqs, dues = self.seq, self.due
+        for k, track in enumerate(self._watched):
+            seq = track.port._slot.seq
+            if seq != seqs[k]:
+                seqs[k] = seq
+                dues[k] = t + track.deadline_ns
                 if track.port._expired:
                     self._back(track, t)
-            elif t > track.due_ns and track.entry.state == ACTIVE:
-                self._expire(track, t)
+            elif t > dues[k] and track.entry.state == ACTIVE:
+                self._expire(track, k, t)
 
     def summary(self) -> dict[str, dict[str, Any]]:
         """Per input with a deadline: how many times it passed it, for how long in all
@@ -174,11 +195,11 @@ class DeadlineWatch:
         return [t.port.qualified_name for t in self._watched if t.port._expired]
 
     # -- what happens, rarely: outside the steady state ----------------------------
-    def _expire(self, track: _Track, t: int) -> None:
+    def _expire(self, track: _Track, k: int, t: int) -> None:
         port, entry = track.port, track.entry
         port._expired = True
-        arrival = track.due_ns - track.deadline_ns
-        track.due_ns = NEVER  # until the next value
+        arrival = self.due[k] - track.deadline_ns
+        self.due[k] = NEVER  # until the next value
         self.bits[0] |= track.bit
         self.misses[0] += 1
         track.since_ns = t

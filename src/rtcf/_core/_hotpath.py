@@ -10,6 +10,7 @@ compiled one costs a fraction per component (docs/performance.md#the-hot-path-in
 from __future__ import annotations
 
 import os
+from array import array
 from typing import TYPE_CHECKING, Any
 
 from . import _interpreted
@@ -37,6 +38,7 @@ if TYPE_CHECKING:  # the two have the same API: type-check against the Python on
     from ._interpreted import (
         Calculation,
         CompiledPlans,
+        DeadlineGate,
         Handover,
         HeartbeatWatch,
         InputPort,
@@ -58,9 +60,16 @@ else:
     CompiledPlans = _module.CompiledPlans
     RingGate = _module.RingGate
     HeartbeatWatch = _module.HeartbeatWatch
+    DeadlineGate = _module.DeadlineGate
     WordTap = _module.WordTap  # None on the Python path
     Handover = _module.Handover  # None on the Python path
     set_flow_status = _module.set_flow_status
+
+
+def gate_words(values: list[int]) -> Any:
+    """The per-input words a DeadlineGate of this path keeps (its seqs, its due
+    times): int64 words for the compiled one, a list (no boxing) for the Python one."""
+    return array("q", values) if HOT_PATH == "compiled" else list(values)
 
 
 def describe() -> str:

@@ -349,6 +349,48 @@ class HeartbeatWatch:
         self._cell = self._stop = None
 
 
+class DeadlineGate:
+    """The loop's last feeder where inputs have deadlines: per port k, a new value sets
+    ``seq[k]`` and ``due[k] = state.time_ns + its deadline``; calls ``fn`` (the watch's
+    full check) when one past its deadline has a value again or ``time_ns > due[k]``."""
+
+    __slots__ = ("_due", "_ports", "_seq", "_state", "fn")
+
+    def __init__(
+        self, state: Any, ports: tuple[Any, ...], seq: Any, due: Any, fn: Callable[[], object]
+    ) -> None:
+        if len(seq) < len(ports) or len(due) < len(ports):
+            raise IndexError("DeadlineGate: fewer words than ports")
+        self._state = state
+        self._ports = ports
+        self._seq: Any = seq
+        self._due = due
+        self.fn = fn
+
+    def __call__(self) -> object:
+        seq = self._seq
+        if seq is None:
+            return None
+        t = self._state.time_ns
+        due = self._due
+        k = 0  # (no enumerate: no tuple per input and iteration)
+        for port in self._ports:
+            s = port._slot.seq
+            if s != seq[k]:
+                if port._expired:  # back: the watch's check takes it from here
+                    return self.fn()
+                seq[k] = s
+                due[k] = t + port._deadline_ns
+            elif t > due[k]:
+                return self.fn()
+            k += 1
+        return None
+
+    def release(self) -> None:
+        """Let go of the words (calls do nothing after)."""
+        self._seq = self._due = None
+
+
 # A recorded float, int or bool output's tap that the port's write calls directly: only
 # compiled (rtcf._core._compiled.WordTap). The Python path records through
 # rtcf._runtime._recording's own taps, which push the same records.

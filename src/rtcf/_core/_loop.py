@@ -137,7 +137,7 @@ class Loop:
         watch = self._deadlines
         events_before = len(watch.events)
         # last: after the middleware's messages, before the first update
-        executor.feeders = tuple(feeders) + ((watch.check,) if watch.refresh() else ())
+        executor.feeders = tuple(feeders) + ((watch.gate,) if watch.refresh() else ())
         executor.ros_offset_ns = ros_offset_ns
         executor.idle = self._idle_hook(
             on_iteration, drain_logs_every_iteration, aggregate, timing_ring
