@@ -91,6 +91,14 @@ def stop(proc):
     return out, err
 
 
+def finish(proc, sig=signal.SIGINT):
+    """``sig`` to ``proc`` if it still runs, then as :func:`read_rest` (no exit check:
+    for a ``finally``, and for a process killed on purpose)."""
+    if proc.poll() is None:
+        proc.send_signal(sig)
+    return read_rest(proc)
+
+
 def end_after_each_test(started, end, *, launchers_first=False):
     """An autouse fixture for a test module (assign it to a name there): after each test,
     ``end`` the processes in the list ``started`` and forget them. ``launchers_first``:

@@ -20,7 +20,7 @@ import pytest
 import rtcf.recording
 
 from .._launches import launch_xml, launcher_xml, runner_xml
-from .._proc import read_rest, wait_for, wait_for_count
+from .._proc import finish, wait_for, wait_for_count
 from ._two_hosts import set_link, start_on, two_hosts
 
 pytestmark = pytest.mark.integration
@@ -57,12 +57,6 @@ def _rtcf(host, launch, out, *extra):
                     "--record", out / "run.mcap", "--report", out, *extra)
 
 
-def _stop(proc, sig=signal.SIGINT):
-    if proc.poll() is None:
-        proc.send_signal(sig)
-    return read_rest(proc, timeout=60)
-
-
 def test_a_cut_link_and_a_killed_feed_hand_over_to_the_fallback_and_back(hosts, tmp_path):
     host_a, host_b = hosts
     (tmp_path / "a.launch").write_text(A)
@@ -93,12 +87,12 @@ def test_a_cut_link_and_a_killed_feed_hand_over_to_the_fallback_and_back(hosts, 
         restarted = time.monotonic() - killed
         wait_for_count(proc_a, RESUMED, 2, timeout=60)
         time.sleep(FED)
-        _, err_b = _stop(feeds[1])
+        _, err_b = finish(feeds[1])
         assert feeds[1].returncode == 0, err_b
     finally:
         for proc in feeds:
-            _stop(proc, signal.SIGKILL)
-        _, err_a = _stop(proc_a)
+            finish(proc, signal.SIGKILL)
+        _, err_a = finish(proc_a)
     assert proc_a.returncode == 0, err_a
 
     doc = json.loads((tmp_path / "a" / "timing.json").read_text())
@@ -158,8 +152,8 @@ def test_a_cut_link_and_a_killed_feed_hand_over_to_the_fallback_and_back(hosts, 
     assert in_cut - DEPTH <= never <= in_cut, (in_cut, never, counts)
     resume = partition["back_time"] - partition["last_arrival"] - cut
     back = kill["back_time"] - kill["last_arrival"] - restarted
-    print(f"\npartition: cut {cut:.2f} s, B sent {in_cut} A did not read across it, "
-          f"never arrived {never}, came late {in_cut - never}; A read {counts['read']}, "
+    print(f"\npartition: cut {cut:.2f} s (B sent about {cut * 50:.0f} meanwhile), never "
+          f"arrived {never}, A did not read {in_cut} across it; A read {counts['read']}, "
           f"arrived {counts['arrived']}, superseded {counts['superseded']}; feed back "
           f"{resume:.3f} s after the link; killed runner: back {back:.3f} s after its "
           f"restart; DDS: {[ln for ln in err_a.splitlines() if 'ROS 2 input' in ln]}")
