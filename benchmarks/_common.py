@@ -73,6 +73,40 @@ def require_ros2() -> None:
             sys.exit(2)
 
 
+class SpinningNode:
+    """An rclpy node of this process, in a context of its own, spun by a thread
+    (``start()``) until ``close()``."""
+
+    def __init__(self, name: str) -> None:
+        import rclpy
+
+        self.context = rclpy.Context()
+        rclpy.init(context=self.context)
+        self.node = rclpy.create_node(name, context=self.context)
+
+    def start(self) -> None:
+        from rclpy.executors import SingleThreadedExecutor
+
+        self.executor = SingleThreadedExecutor(context=self.context)
+        self.executor.add_node(self.node)
+        self.thread = threading.Thread(target=self._spin, daemon=True)
+        self.thread.start()
+
+    def _spin(self) -> None:
+        while self.context.ok():
+            try:
+                self.executor.spin_once(timeout_sec=0.1)
+            except Exception:  # shut down under it
+                return
+
+    def close(self) -> None:
+        import rclpy
+
+        rclpy.shutdown(context=self.context)
+        self.thread.join(5)
+        self.node.destroy_node()
+
+
 def _cpuinfo() -> tuple[str, bool]:
     model, hypervisor = "unknown", False
     with contextlib.suppress(OSError):

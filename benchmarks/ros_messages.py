@@ -20,13 +20,16 @@ each system's update is also timed in this process, back to back (warm caches): 
 cost of the write itself, apart from the loop and the machine's noise.
 
     .venv-ros2/bin/python benchmarks/ros_messages.py [--duration S] [--rounds N] [--quick]
+
+With ``--examples``: the loop of the two examples (arm.launch with
+``ros2_controllers:=true``, diffbot.launch) with every controller active, driven from
+ROS (``_examples_loop.py``).
 """
 
 from __future__ import annotations
 
 import statistics
 import sys
-import threading
 import time
 from pathlib import Path
 from typing import Any
@@ -56,19 +59,15 @@ def launch(system: str) -> str:
                         runner_params={"ros_mapping_whitelist": f'"{topic(system)}"'})
 
 
-class Probe:
+class Probe(c.SpinningNode):
     """An rclpy node spinning in a thread of this process: raw subscriptions counting
     the messages of each system, the last one kept."""
 
     def __init__(self) -> None:
-        import rclpy
-        from rclpy.executors import SingleThreadedExecutor
         from sensor_msgs.msg import JointState
         from std_msgs.msg import Float64MultiArray
 
-        self.context = rclpy.Context()
-        rclpy.init(context=self.context)
-        self.node = rclpy.create_node("ros_messages_probe", context=self.context)
+        super().__init__("ros_messages_probe")
         self.count = dict.fromkeys(SYSTEMS, 0)
         self.last: dict[str, bytes] = {}
         self.types = {s: Float64MultiArray if s == "float array" else JointState
@@ -76,10 +75,7 @@ class Probe:
         for system, cls in self.types.items():
             self.node.create_subscription(cls, topic(system), self._take(system), 100,
                                           raw=True)
-        self.executor = SingleThreadedExecutor(context=self.context)
-        self.executor.add_node(self.node)
-        self.thread = threading.Thread(target=self._spin, daemon=True)
-        self.thread.start()
+        self.start()
 
     def _take(self, system: str) -> Any:
         def take(data: bytes) -> None:
@@ -88,25 +84,11 @@ class Probe:
 
         return take
 
-    def _spin(self) -> None:
-        while self.context.ok():
-            try:
-                self.executor.spin_once(timeout_sec=0.1)
-            except Exception:  # shut down under it
-                return
-
     def message(self, system: str) -> Any:
         from rclpy.serialization import deserialize_message
 
         data = self.last.get(system)
         return None if data is None else deserialize_message(data, self.types[system])
-
-    def close(self) -> None:
-        import rclpy
-
-        rclpy.shutdown(context=self.context)
-        self.thread.join(5)
-        self.node.destroy_node()
 
 
 def checked(system: str, msg: Any) -> bool:
@@ -161,8 +143,15 @@ def tight(quick: bool) -> dict[str, float]:
 def main() -> int:
     parser = c.parser(__doc__.splitlines()[0], 10)
     parser.add_argument("--rounds", type=int, default=3)
+    parser.add_argument("--examples", action="store_true",
+                        help="instead: the loop of the two examples with every controller "
+                             "active (_examples_loop.py)")
     args = parser.parse_args()
     c.require_ros2()
+    if args.examples:
+        import _examples_loop
+
+        return _examples_loop.run(args)
     duration = args.duration or (2.0 if args.quick else 10.0)
     rounds = 1 if args.quick else args.rounds
     machine = c.machine_info()

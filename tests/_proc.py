@@ -91,12 +91,13 @@ def stop(proc):
     return out, err
 
 
-def finish(proc, sig=signal.SIGINT):
-    """``sig`` to ``proc`` if it still runs, then as :func:`read_rest` (no exit check:
-    for a ``finally``, and for a process killed on purpose)."""
+def interrupt(proc, timeout=60.0):
+    """SIGINT (Ctrl-C) if ``proc`` still runs, then wait for its end: (stdout, all of
+    stderr). For a ``finally`` that must not raise: its exit status is the test's to
+    check."""
     if proc.poll() is None:
-        proc.send_signal(sig)
-    return read_rest(proc)
+        proc.send_signal(signal.SIGINT)
+    return read_rest(proc, timeout=timeout)
 
 
 def end_after_each_test(started, end, *, launchers_first=False):

@@ -43,17 +43,23 @@ class ControllerParameters:
         """Whether the launch file or YAML file set ``name``."""
         return self._raw(name) is not _MISSING
 
+    def _value(self, name: str, default: Any, expected: str) -> Any:
+        """What the file set for ``name``, else ``default`` (checked as a value would
+        be); without either, the error that asks for ``expected``."""
+        value = self._raw(name)
+        if value is _MISSING:
+            if default is _MISSING:
+                raise self.error(name, None, expected)
+            return default
+        return value
+
     def number(
         self, name: str, default: float = _MISSING, *, positive: bool = False, nan: bool = False
     ) -> float:
         """A double parameter (an int is taken as ros2's YAML loader would not, but
         people write ``1`` for ``1.0``). ``positive``: > 0; ``nan``: NaN allowed
         (ros2_controllers' "unlimited")."""
-        value = self._raw(name)
-        if value is _MISSING:
-            if default is _MISSING:
-                raise self.error(name, None, "a number")
-            value = default
+        value = self._value(name, default, "a number")
         if isinstance(value, bool) or not isinstance(value, (int, float)):
             raise self.error(name, value, "a number")
         number = float(value)
@@ -64,31 +70,19 @@ class ControllerParameters:
         return number
 
     def integer(self, name: str, default: int = _MISSING) -> int:
-        value = self._raw(name)
-        if value is _MISSING:
-            if default is _MISSING:
-                raise self.error(name, None, "an integer")
-            return default
+        value = self._value(name, default, "an integer")
         if isinstance(value, bool) or not isinstance(value, int):
             raise self.error(name, value, "an integer")
         return value
 
     def flag(self, name: str, default: bool = _MISSING) -> bool:
-        value = self._raw(name)
-        if value is _MISSING:
-            if default is _MISSING:
-                raise self.error(name, None, "true or false")
-            return default
+        value = self._value(name, default, "true or false")
         if not isinstance(value, bool):
             raise self.error(name, value, "true or false")
         return value
 
     def text(self, name: str, default: str = _MISSING, *, choices: Sequence[str] = ()) -> str:
-        value = self._raw(name)
-        if value is _MISSING:
-            if default is _MISSING:
-                raise self.error(name, None, "a string")
-            value = default
+        value = self._value(name, default, "a string")
         if not isinstance(value, str):
             raise self.error(name, value, "a string")
         if choices and value not in choices:
@@ -99,11 +93,7 @@ class ControllerParameters:
         self, name: str, default: Sequence[str] = _MISSING, *, non_empty: bool = False
     ) -> list[str]:
         """A string array (joint names, interfaces): no duplicates."""
-        value = self._raw(name)
-        if value is _MISSING:
-            if default is _MISSING:
-                raise self.error(name, None, "a list of strings")
-            value = list(default)
+        value = self._value(name, default, "a list of strings")
         if not isinstance(value, (list, tuple)) or not all(isinstance(v, str) for v in value):
             raise self.error(name, value, "a list of strings")
         if non_empty and not value:
@@ -114,11 +104,7 @@ class ControllerParameters:
 
     def numbers(self, name: str, default: Sequence[float] = _MISSING) -> list[float]:
         """A double array (covariance diagonals)."""
-        value = self._raw(name)
-        if value is _MISSING:
-            if default is _MISSING:
-                raise self.error(name, None, "a list of numbers")
-            value = list(default)
+        value = self._value(name, default, "a list of numbers")
         if not isinstance(value, (list, tuple)) or not all(
             isinstance(v, (int, float)) and not isinstance(v, bool) for v in value
         ):

@@ -16,6 +16,7 @@ import numpy as np
 import rtcf
 
 from ._odometry import Odometry
+from ._odometry_publisher import OdometryPublisher, frames
 from ._params import ControllerParameters
 from ._speed_limiter import speed_limiter
 
@@ -96,15 +97,14 @@ class DiffDriveController(rtcf.Component):
                 )
         self.linear_limiter = speed_limiter(p, self, "linear.x")
         self.angular_limiter = speed_limiter(p, self, "angular.z")
-        odom_frame, base_frame = self._frames(p)
+        frame_ids = frames(p, self.namespace)
 
         twist, odometry, transform, tf_message = _import_messages(self.enable_odom_tf)
-        self.twist_message, self.odometry_message = twist, odometry
-        self.transform_message, self.tf_message = transform, tf_message
-        self.odom_frame, self.base_frame = odom_frame, base_frame
-        self.pose_covariance = np.diag(covariances[0]).reshape(36)
-        self.twist_covariance = np.diag(covariances[1]).reshape(36)
+        self.twist_message = twist
         self.odometry = Odometry(self.separation, self.left_radius, self.right_radius, window)
+        self.publisher = OdometryPublisher(self, self.odometry, frame_ids, covariances,
+                                           self.publish_period_ns,
+                                           (odometry, transform, tf_message))
 
         self.cmd_vel = self.add_input("~cmd_vel", twist)
         self.velocity_command = self.add_output("velocity_command", np.ndarray)
@@ -112,31 +112,12 @@ class DiffDriveController(rtcf.Component):
         if not self.open_loop:
             interface = "position" if self.position_feedback else "velocity"
             self.feedback = self.add_input(interface, np.ndarray)
-        self.odom = self.add_output("~odom", odometry)
-        self.tf = self.add_output("/tf", tf_message) if self.enable_odom_tf else None
+        self.publisher.add_ports()  # ~odom and /tf
         self.cmd_vel_out = (
             self.add_output("~cmd_vel_out", twist) if self.publish_limited_velocity else None
         )
-        # the first message of a type loads its type support (an import): here, not in
-        # the loop
-        self._odometry_message(0.0, 0.0, 0.0, 1.0)
-        twist()
-        if tf_message is not None:
-            tf_message(transforms=[transform()])
+        twist()  # its first message loads its type support (an import): not in the loop
         self.reset()
-
-    def _frames(self, p: ControllerParameters) -> tuple[str, str]:
-        """odom_frame_id and base_frame_id with the tf prefix: tf_frame_prefix, or the
-        namespace when it is empty; never a leading '/', always a trailing one."""
-        prefix = ""
-        if p.flag("tf_frame_prefix_enable", True):
-            prefix = p.text("tf_frame_prefix", "") or self.namespace
-            if not prefix.endswith("/"):
-                prefix += "/"
-            if prefix.startswith("/"):
-                prefix = prefix[1:]
-        odom, base = p.text("odom_frame_id", "odom"), p.text("base_frame_id", "base_link")
-        return prefix + odom, prefix + base
 
     def reset(self) -> None:
         """The odometry back to the origin (configure, cleanup), and the buffers."""
@@ -151,7 +132,7 @@ class DiffDriveController(rtcf.Component):
         self.reference_linear = self.reference_angular = math.nan
         self.last = [0.0, 0.0]  # linear, angular of the last command
         self.before_last = [0.0, 0.0]
-        self.next_publish_ns = -1  # the first update publishes
+        self.publisher.reset()  # the first update publishes
         self.warned_ns = {"timeout": -_THROTTLE_NS, "nan": -_THROTTLE_NS}
         self.received = False  # a cmd_vel since: its NaN is worth a warning
 
@@ -192,11 +173,7 @@ class DiffDriveController(rtcf.Component):
             self.odometry.update_open_loop(linear, angular, time)
         elif not self._update_odometry(time, dt):
             return  # no feedback yet: ros2_controllers writes no command then either
-        if now > self.next_publish_ns:
-            if self.next_publish_ns < 0:
-                self.next_publish_ns = now
-            self.next_publish_ns += self.publish_period_ns
-            self._publish()
+        self.publisher.publish_due(now)
         if self.cmd_vel_out is not None:
             out = self.twist_message()
             self.stamp_to(out.header.stamp)
@@ -264,39 +241,6 @@ class DiffDriveController(rtcf.Component):
                 left * self.left_radius * dt, right * self.right_radius * dt, time
             )
         return True
-
-    def _publish(self) -> None:
-        odometry = self.odometry
-        half = odometry.heading * 0.5
-        qz, qw = math.sin(half), math.cos(half)
-        message = self._odometry_message(odometry.x, odometry.y, qz, qw)
-        self.odom.write(message)
-        if self.tf is not None:
-            transform = self.transform_message()
-            transform.header.stamp = message.header.stamp
-            transform.header.frame_id = self.odom_frame
-            transform.child_frame_id = self.base_frame
-            transform.transform.translation.x = odometry.x
-            transform.transform.translation.y = odometry.y
-            transform.transform.rotation.z = qz
-            transform.transform.rotation.w = qw
-            self.tf.write(self.tf_message(transforms=[transform]))
-
-    def _odometry_message(self, x: float, y: float, qz: float, qw: float) -> Any:
-        # a new message per write (publish_rate, 50 Hz): an in-process reader may
-        # still hold the last one
-        message = self.odometry_message()
-        self.stamp_to(message.header.stamp)
-        message.header.frame_id = self.odom_frame
-        message.child_frame_id = self.base_frame
-        pose = message.pose
-        pose.pose.position.x, pose.pose.position.y = x, y
-        pose.pose.orientation.z, pose.pose.orientation.w = qz, qw
-        pose.covariance = self.pose_covariance
-        twist = message.twist
-        twist.twist.linear.x, twist.twist.angular.z = self.odometry.linear, self.odometry.angular
-        twist.covariance = self.twist_covariance
-        return message
 
     def _write_wheels(self, left: float, right: float) -> None:
         n = self.wheels_per_side

@@ -7,7 +7,6 @@ one value per joint in the order of ``joints`` (docs/controllers.md).
 
 from __future__ import annotations
 
-import array
 import math
 from typing import Any
 
@@ -15,6 +14,7 @@ import numpy as np
 
 import rtcf
 
+from ._layouts import matrix
 from ._message_types import message_class
 from ._params import ControllerParameters
 from ._throttle import Throttled
@@ -105,10 +105,30 @@ class JointStateBroadcaster(rtcf.Component):
             values[n:] = 0.0
         nan = np.full(n + extra, math.nan)
         nan[n:] = 0.0
-        self.fields = [self.values[k] if k >= 0 else nan for k in self.field_port]
-        # per joint, the interfaces' values side by side (the extra joints: the fields)
-        self.matrix = np.empty((n, len(self.ports)))
-        self.interface_names = [self.interfaces] * n + [list(FIELDS)] * extra
+        fields = [self.values[k] if k >= 0 else nan for k in self.field_port]
+        # the messages laid out as their bytes once (rtcf.Serialized): the loop stores
+        # the numbers, the stamp, and writes them
+        self.js = rtcf.Serialized(self.message, name=self.names,
+                                  **dict(zip(FIELDS, fields, strict=True)),
+                                  **{"header.frame_id": self.frame_id})
+        # (destination view, source values) of each field to copy in the loop
+        self.copies = [(self.js.view(f), fields[i]) for i, f in enumerate(FIELDS)
+                       if self.field_port[i] >= 0]
+        if self.dynamic_message is not None:
+            # per joint, its interfaces' values (the extra joints: the fields, zeros)
+            names = [self.interfaces] * n + [list(FIELDS)] * extra
+            self.dynamic = rtcf.Serialized(
+                self.dynamic_message, joint_names=self.names,
+                interface_values=[{"interface_names": i, "values": [0.0] * len(i)}
+                                  for i in names],
+                **{"header.frame_id": self.frame_id})
+            # the joints' values as one joints x interfaces view into the bytes (the
+            # joints' entries are laid out alike, a fixed stride apart), filled a column
+            # per interface in the loop; an extra joint's stay 0
+            views = [self.dynamic.view(f"interface_values[{j}].values") for j in range(n)]
+            self.copies_dynamic = [] if not n else [
+                (column, values[:n])
+                for column, values in zip(matrix(views).T, self.values, strict=True)]
 
     def update(self) -> None:
         for k, port in enumerate(self.ports):
@@ -126,38 +146,18 @@ class JointStateBroadcaster(rtcf.Component):
             self.values[k][: self.n] = values
         if not self.n:
             return  # no joint named, none measured yet: nothing to say
-        msg = self.message()
-        header = msg.header
-        header.frame_id = self.frame_id
-        self.stamp_to(header.stamp)
-        msg.name = self.names
-        position, velocity, effort = self.fields
-        msg.position = array.array("d", position.tobytes())
-        msg.velocity = array.array("d", velocity.tobytes())
-        msg.effort = array.array("d", effort.tobytes())
-        self.joint_states.write(msg)
+        js = self.js
+        js.stamp_ns = self.stamp_ns
+        for view, values in self.copies:
+            view[:] = values
+        self.joint_states.write(js)
         if self.dynamic_message is not None:
             self._write_dynamic()
 
     def _write_dynamic(self) -> None:
-        msg = self.dynamic_message()
-        header = msg.header
-        header.frame_id = self.frame_id
-        self.stamp_to(header.stamp)
-        msg.joint_names = self.names
-        matrix = self.matrix
-        n = self.n
-        for k, values in enumerate(self.values):
-            matrix[:n, k] = values[:n]
-        interface_value = self.interface_value
-        joint_values = []
-        for j, names in enumerate(self.interface_names):
-            value = interface_value()
-            value.interface_names = names
-            value.values = array.array("d", (matrix[j] if j < n else _ZEROS).tobytes())
-            joint_values.append(value)
-        msg.interface_values = joint_values
-        self.dynamic_joint_states.write(msg)
+        dynamic = self.dynamic
+        dynamic.stamp_ns = self.stamp_ns
+        for column, values in self.copies_dynamic:
+            column[:] = values
+        self.dynamic_joint_states.write(dynamic)
 
-
-_ZEROS = np.zeros(len(FIELDS))  # an extra joint's position, velocity and effort

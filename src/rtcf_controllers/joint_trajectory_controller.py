@@ -17,11 +17,11 @@ import numpy as np
 
 import rtcf
 
-from . import _jtc_messages as results
+from ._jtc_goals import Goals
 from ._jtc_messages import Messages
-from ._jtc_settings import COMMANDS, read_settings
+from ._jtc_settings import read_settings
 from ._message_types import message_class
-from ._tolerances import Checker, Tolerances, for_goal
+from ._tolerances import Checker
 from ._trajectory import Trajectory, check, duration_s, from_message, hold
 
 
@@ -38,11 +38,9 @@ class JointTrajectoryController(rtcf.Component):
         for part in (FollowJointTrajectory.Feedback, FollowJointTrajectory.Result):
             part()  # their first message runs their imports: here, not in the loop
         JointTrajectory = message_class(self, "trajectory_msgs.msg", "JointTrajectory")
-        JointTrajectoryPoint = message_class(self, "trajectory_msgs.msg", "JointTrajectoryPoint")
         self.cfg = cfg = read_settings(self)
         self.joints = joints = cfg.joints
         self.pid = cfg.pid
-        self.active_tolerances: Tolerances = cfg.defaults
 
         # ports: ros2_control's interfaces, and the controller's topics and action
         self.state_in = {s: self.add_input(s, np.ndarray) for s in self.cfg.state_interfaces}
@@ -51,10 +49,14 @@ class JointTrajectoryController(rtcf.Component):
         self.trajectory_in = self.add_input("~/joint_trajectory", JointTrajectory)
         self.state_out = self.add_output("~/controller_state", JointTrajectoryControllerState)
         # one goal runs at a time: a newer one preempts it (accept(preempt=...))
-        self.action = self.add_action_server(
+        action = self.add_action_server(
             "~/follow_joint_trajectory", FollowJointTrajectory, max_goals=1)
-        self.messages = Messages(joints, FollowJointTrajectory, JointTrajectoryControllerState,
-                                 JointTrajectoryPoint)
+        self.messages = Messages(
+            joints, FollowJointTrajectory, JointTrajectoryControllerState,
+            has_velocity="velocity" in self.state_in,
+            has_acceleration="acceleration" in self.state_in,
+            commands=cfg.command_interfaces)
+        self.goals = Goals(self, action, self.messages)
 
         # preallocated: the state, the samples, the error and the commands
         n = len(joints)
@@ -78,22 +80,18 @@ class JointTrajectoryController(rtcf.Component):
         self.written: dict[str, np.ndarray] = {}  # port name -> the last command written
         self.trajectory: Trajectory | None = None
         self.holding = True
-        self.goal: int = -1  # the goal being executed, -1: none
-        self.goal_iteration = 0
         self.log.info("joints %s, commands %s, states %s", joints, cfg.command_interfaces,
                       cfg.state_interfaces)
 
     def start(self) -> None:
         self.trajectory = None  # the first update holds where the joints are
         self.commanded = False
-        self.goal = -1
-        self.active_tolerances = self.cfg.defaults
+        self.goals.reset()
         if self.pid is not None:
             self.pid.reset()
 
     def stop(self) -> None:
-        if self.goal >= 0:  # as ros2_controllers' on_deactivate
-            self._end(self.action.abort, results.INVALID_GOAL, results.STOPPED)
+        self.goals.stop()
         self.trajectory = None
 
     # -- the loop -------------------------------------------------------------------
@@ -108,16 +106,14 @@ class JointTrajectoryController(rtcf.Component):
             if value is not None:
                 actual[row] = value
         t = self.time
-        request = self.action.request()
-        if request is not None:
-            self._decide(request, t)
+        self.goals.poll(t)
         if self.trajectory_in.has_new_data:
             message = self.trajectory_in.read()
-            problem = None if message is None else self._follow(message, t)
+            problem = None if message is None else self.follow(message, t)
             if problem is not None:
                 self.log.error("~/joint_trajectory ignored: %s", problem)
         if self.trajectory is None:
-            self._hold()
+            self.hold()
         trajectory = self.trajectory
         assert trajectory is not None
         first = not trajectory.begun
@@ -138,7 +134,7 @@ class JointTrajectoryController(rtcf.Component):
         if self.cfg.acceleration_error:
             np.subtract(desired[2], actual[2], out=error[2])
 
-        tolerances = self.active_tolerances
+        tolerances = self.goals.tolerances
         timed_out = (not before_last and not self.holding and self.cfg.cmd_timeout > 0.0
                      and since > self.cfg.cmd_timeout)
         path_joint = goal_joint = -1
@@ -151,50 +147,20 @@ class JointTrajectoryController(rtcf.Component):
 
         if path_joint < 0 and not late:
             self._command(error)
-        if self.goal >= 0:
-            self._monitor(path_joint, goal_joint, late, timed_out, before_last, since, trajectory)
+        if self.goals.goal >= 0:
+            self.goals.monitor(path_joint, goal_joint, late, timed_out, before_last, since,
+                               trajectory)
         elif path_joint >= 0:
-            self.log.error("holding position: path tolerance violated (%s)", self._why(
+            self.log.error("holding position: path tolerance violated (%s)", self.why(
                 tolerances.path, path_joint))
-            self._hold()
+            self.hold()
         elif late or timed_out:
             self.log.error("holding position: %s", "goal_time exceeded" if late
                            else f"cmd_timeout {self.cfg.cmd_timeout:g} s")
-            self._hold()
-        if self.cfg.state_every and self.iteration % self.cfg.state_every == 0:
+            self.hold()
+        # the rates count this controller's runs (its `rate` may be below the loop's)
+        if self.cfg.state_every and (self.iteration // self.every) % self.cfg.state_every == 0:
             self._publish_state(t - (trajectory.start or 0.0))
-
-    def _monitor(self, path_joint: int, goal_joint: int, late: bool, timed_out: bool,
-                 before_last: bool, since: float, trajectory: Trajectory) -> None:
-        """The running goal: feedback at action_monitor_rate, and its end."""
-        goal = self.goal
-        if (self.iteration - self.goal_iteration) % self.cfg.feedback_every == 0:
-            self.action.publish_feedback(goal, self.messages.feedback(
-                self, self.desired, self.actual, self.error))
-        tolerances = self.active_tolerances
-        if path_joint >= 0:
-            why = self._why(tolerances.path, path_joint)
-            self.log.warning("goal %d aborted: path tolerance violated (%s)", goal, why)
-            self._end(self.action.abort, results.PATH_TOLERANCE_VIOLATED,
-                      "Aborted due to path tolerance violation")
-            self._hold()
-        elif before_last:
-            return
-        elif goal_joint < 0:
-            self.log.info("goal %d reached", goal)
-            self._end(self.action.succeed, results.SUCCESSFUL, "Goal successfully reached!")
-            self._hold(trajectory)
-        elif late:
-            text = f"Aborted due to goal_time_tolerance exceeding by {since:f} seconds"
-            self.log.warning("goal %d: %s (%s)", goal, text, self._why(tolerances.goal, goal_joint))
-            self._end(self.action.abort, results.GOAL_TOLERANCE_VIOLATED, text)
-            self._hold()
-        elif timed_out:
-            self.log.warning("goal %d aborted: cmd_timeout %g s after its last point",
-                             goal, self.cfg.cmd_timeout)
-            self._end(self.action.abort, results.GOAL_TOLERANCE_VIOLATED,
-                      "Aborted due to command timeout")
-            self._hold()
 
     def _command(self, error: np.ndarray) -> None:
         """Write the commands: the sample one period ahead (through the PID for a
@@ -223,7 +189,7 @@ class JointTrajectoryController(rtcf.Component):
         trajectory.begin(t, state[0], state[1] if has_velocity else None,
                          state[2] if has_acceleration else None)
 
-    def _hold(self, trajectory: Trajectory | None = None) -> None:
+    def hold(self, trajectory: Trajectory | None = None) -> None:
         """Hold where the joints are (zero velocity), or at ``trajectory``'s last point."""
         p, v, a = (self.actual[0].copy(), None, None) if trajectory is None else (
             trajectory.last_point())
@@ -231,7 +197,7 @@ class JointTrajectoryController(rtcf.Component):
                                interpolate=self.cfg.interpolate)
         self.holding = True
 
-    def _follow(self, message: Any, t: float) -> str | None:
+    def follow(self, message: Any, t: float) -> str | None:
         """Follow a trajectory message from now on, or say why not."""
         problem = check(message, self.joints, allow_partial=self.cfg.allow_partial,
                         allow_nonzero_end_velocity=self.cfg.allow_nonzero_end,
@@ -254,47 +220,10 @@ class JointTrajectoryController(rtcf.Component):
         self.holding = False
         return None
 
-    # -- the action ---------------------------------------------------------------------
-    def _decide(self, request: rtcf.ActionRequest, t: float) -> None:
-        action = self.action
-        if request.kind == rtcf.ActionRequest.CANCEL:
-            if request.goal_id != self.goal:
-                action.reject_cancel(request)
-                return
-            action.accept_cancel(request)
-            self.log.info("goal %d canceled: holding position", self.goal)
-            self._end(action.canceled, 0, "")  # an empty result
-            self._hold()
-            return
-        goal = request.goal
-        problem = self._follow(goal.trajectory, t)
-        if problem is not None:
-            self.log.error("goal %d rejected: %s", request.goal_id, problem)
-            action.reject(request)
-            return
-        action.accept(request, preempt=self.messages.result(
-            results.INVALID_GOAL, results.PREEMPTED))
-        if self.goal >= 0:
-            self.log.info("goal %d preempted by goal %d", self.goal, request.goal_id)
-        self.goal = request.goal_id
-        self.goal_iteration = self.iteration
-        self.active_tolerances, why = for_goal(self.cfg.defaults, goal, self.joints)
-        if why is not None:
-            self.log.error("goal %d runs on the default tolerances: %s", self.goal, why)
-        self.log.info("goal %d accepted: %d points", self.goal, len(goal.trajectory.points))
-
-    def _end(self, verb: Any, code: int, text: str) -> None:
-        verb(self.goal, self.messages.result(code, text))
-        self.goal = -1
-        self.active_tolerances = self.cfg.defaults
-
     # -- what goes out ------------------------------------------------------------------
-    def _why(self, tolerance: np.ndarray, joint: int) -> str:
+    def why(self, tolerance: np.ndarray, joint: int) -> str:
         return Checker.describe(self.error, tolerance, joint, self.joints[joint])
 
     def _publish_state(self, since: float) -> None:
-        output = [self.written.get(f"{name}_command") for name in COMMANDS]
         self.state_out.write(self.messages.state(
-            self, self.desired, self.actual, self.error, output,
-            has_velocity="velocity" in self.state_in,
-            has_acceleration="acceleration" in self.state_in, since=since))
+            self, self.desired, self.actual, self.error, self.written, since))

@@ -16,6 +16,7 @@ import numpy as np
 
 import rtcf
 
+from ._layouts import run_from
 from ._message_types import message_class
 from ._params import ControllerParameters
 from ._pid import Gains, Pid, shortest_angular_distance
@@ -74,9 +75,9 @@ class PidController(rtcf.Component):
                     "gains.%s.activate_state_publisher: no per-dof pid_state here; "
                     "~/controller_state has every dof", dof)
         command_msg = message_class(self, "control_msgs.msg", "MultiDOFCommand")
-        self.single = message_class(self, "control_msgs.msg", "SingleDOFState")
+        single = message_class(self, "control_msgs.msg", "SingleDOFState")
         self.state_msg = message_class(
-            self, "control_msgs.msg", "MultiDOFStateStamped", dof_states=[self.single()]
+            self, "control_msgs.msg", "MultiDOFStateStamped", dof_states=[single()]
         )
         self.reference_port = self.add_input("~/reference", command_msg)
         self.measured_port = (
@@ -92,7 +93,21 @@ class PidController(rtcf.Component):
         self.unknown = Throttled(self)
         self.unnamed = Throttled(self)
         self.command = [_NAN] * n  # what the command interfaces hold (NaN: never written)
+        self._lay_out_state(state_dofs)
         self._clear()
+
+    def _lay_out_state(self, dofs: list[str]) -> None:
+        """``~/controller_state`` as its bytes (rtcf.Serialized), and a table of its
+        numbers, a row per dof (reference, feedback, feedback_dot, error, error_dot,
+        time_step, output: the SingleDOFState's, back to back in the bytes)."""
+        self.state = rtcf.Serialized(self.state_msg, dof_states=[{"name": d} for d in dofs])
+        n = len(dofs)
+        self.table = np.zeros((n, 7))
+        t = self.table
+        self.columns = (t[:, 0], t[:, 1], t[:, 2], t[:, 3], t[:, 4], t[:, 5], t[:, 6])
+        self.rows = [(run_from(self.state.view(f"dof_states[{i}].reference"), 7), t[i])
+                     for i in range(n)]
+        self.wrapped = [i for i, pid in enumerate(self.pids) if pid.gains.angle_wraparound]
 
     def _clear(self) -> None:
         n = len(self.dofs)
@@ -183,28 +198,23 @@ class PidController(rtcf.Component):
             self.command_port.write(np.array(command))
 
     def _publish_state(self, dt: float) -> None:
-        msg = self.state_msg()
-        self.stamp_to(msg.header.stamp)
-        single, two = self.single, self.two
-        states = []
-        for i, name in enumerate(self.state_dofs):
-            ref, state = self.reference[i], self.measured[i]
-            s = single()
-            s.name = name
-            s.reference = ref
-            s.feedback = state
-            if self.pids[i].gains.angle_wraparound:
-                s.error = shortest_angular_distance(state, ref)
-            else:
-                s.error = ref - state
-            if two:
-                s.feedback_dot = self.measured_dot[i]
-                s.error_dot = self.reference_dot[i] - self.measured_dot[i]
-            s.time_step = dt
-            s.output = self.command[i]
-            states.append(s)
-        msg.dof_states = states
-        self.controller_state.write(msg)
+        reference, feedback, feedback_dot, error, error_dot, time_step, output = self.columns
+        reference[:] = self.reference
+        feedback[:] = self.measured
+        np.subtract(reference, feedback, out=error)
+        for i in self.wrapped:
+            error[i] = shortest_angular_distance(self.measured[i], self.reference[i])
+        if self.two:
+            feedback_dot[:] = self.measured_dot
+            error_dot[:] = self.reference_dot
+            error_dot -= feedback_dot
+        time_step[:] = dt
+        output[:] = self.command
+        for view, row in self.rows:
+            view[:] = row
+        state = self.state
+        state.stamp_ns = self.stamp_ns
+        self.controller_state.write(state)
 
     def _take_reference(self, msg: Any) -> None:
         names, values, dots = msg.dof_names, msg.values, msg.values_dot

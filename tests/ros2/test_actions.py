@@ -8,19 +8,18 @@ newer one. The last test ends the process with a goal open.
 """
 
 import signal
-import time
 from pathlib import Path
 
 import pytest
-import rclpy
 from action_msgs.msg import GoalStatus
 from action_msgs.srv import CancelGoal
 from lifecycle_msgs.msg import Transition
 from lifecycle_msgs.srv import ChangeState
-from rclpy.action import ActionClient, get_action_names_and_types
+from rclpy.action import get_action_names_and_types
 from test_msgs.action import Fibonacci  # fails loudly where it is missing
 
 from .._proc import read_rest
+from ._action_client import action_client
 from .test_topics import launched
 
 pytestmark = pytest.mark.integration
@@ -44,27 +43,8 @@ def served():
 
 @pytest.fixture
 def client(served, ros_node):
-    client = ActionClient(ros_node, Fibonacci, NAME)
-    assert client.wait_for_server(timeout_sec=30)
-    executor = rclpy.executors.SingleThreadedExecutor(context=ros_node.context)
-    executor.add_node(ros_node)
-
-    def wait(future, timeout=20.0):
-        executor.spin_until_future_complete(future, timeout_sec=timeout)
-        assert future.done(), "no answer in time"
-        return future.result()
-
-    def until(predicate, timeout=10.0):
-        deadline = time.monotonic() + timeout
-        while not predicate() and time.monotonic() < deadline:
-            executor.spin_once(timeout_sec=0.05)
-        return predicate()
-
-    client.wait = wait
-    client.until = until
-    yield client
-    executor.remove_node(ros_node)
-    client.destroy()
+    with action_client(ros_node, Fibonacci, NAME) as client:
+        yield client
 
 
 def test_the_mapped_action_is_said_and_the_unmapped_one_has_no_server(served, client, ros_node):

@@ -4,7 +4,6 @@ and a trajectory_msgs/JointTrajectory sent from this process to
 /arm_controller/joint_trajectory (joint_trajectory_controller's topic) is followed: the
 arm reaches its goal. A trajectory that cannot be followed is logged and ignored."""
 
-import signal
 
 import numpy as np
 import pytest
@@ -12,7 +11,7 @@ from builtin_interfaces.msg import Duration
 from sensor_msgs.msg import JointState  # fails loudly where it is missing
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
-from .._proc import read_rest, wait_for
+from .._proc import interrupt, wait_for
 from .conftest import start_rtcf
 from .test_topics import spin_until
 
@@ -64,9 +63,7 @@ def test_joint_states_go_out_and_a_trajectory_sent_is_followed(ros_node, file):
         types = dict(ros_node.get_topic_names_and_types())
         assert types["/joint_states"] == ["sensor_msgs/msg/JointState"]
     finally:
-        if proc.poll() is None:
-            proc.send_signal(signal.SIGINT)
-        _, err = read_rest(proc, timeout=60)
+        _, err = interrupt(proc)
     assert proc.returncode == 0, err
     assert "Found remap rule" not in err, err  # launch arguments are not rclpy's remaps
     assert "joint_trajectory ignored: its joint_names ['elbow'] are not" in err, err

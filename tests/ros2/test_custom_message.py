@@ -6,13 +6,12 @@ Point): /mapped/in -> identity1 -> /mapped/tmp (inside the runner only) -> ident
 -> /mapped/out, every field as it was.
 """
 
-import signal
 
 import pytest
 from geometry_msgs.msg import Point, PointStamped  # fails loudly where it is missing
 from std_msgs.msg import Header
 
-from .._proc import read_rest, wait_for
+from .._proc import interrupt, wait_for
 from .conftest import start_rtcf
 from .test_topics import spin_until
 
@@ -46,8 +45,6 @@ def test_pointstamped_through_the_identity_example(ros_node):
         assert types["/mapped/out"] == ["geometry_msgs/msg/PointStamped"]
         assert "/mapped/tmp" not in types  # blacklisted: it stays inside the runner
     finally:
-        if proc.poll() is None:
-            proc.send_signal(signal.SIGINT)
-        _, err = read_rest(proc, timeout=60)
+        _, err = interrupt(proc)
     assert proc.returncode == 0, err
     assert "geometry_msgs/msg/PointStamped" in err  # what rtcf launch says it maps

@@ -11,7 +11,6 @@ accounted for: read, superseded, or never arrived. The hosts are test_several_ho
 (two network namespaces and a veth pair; root)."""
 
 import json
-import signal
 import time
 
 import numpy as np
@@ -20,7 +19,7 @@ import pytest
 import rtcf.recording
 
 from .._launches import launch_xml, launcher_xml, runner_xml
-from .._proc import finish, wait_for, wait_for_count
+from .._proc import interrupt, read_rest, wait_for, wait_for_count
 from ._two_hosts import set_link, start_on, two_hosts
 
 pytestmark = pytest.mark.integration
@@ -87,12 +86,14 @@ def test_a_cut_link_and_a_killed_feed_hand_over_to_the_fallback_and_back(hosts, 
         restarted = time.monotonic() - killed
         wait_for_count(proc_a, RESUMED, 2, timeout=60)
         time.sleep(FED)
-        _, err_b = finish(feeds[1])
+        _, err_b = interrupt(feeds[1])
         assert feeds[1].returncode == 0, err_b
     finally:
-        for proc in feeds:
-            finish(proc, signal.SIGKILL)
-        _, err_a = finish(proc_a)
+        for proc in feeds:  # kill any still running, read those not yet read
+            if not proc.stdout.closed:
+                proc.kill()
+                read_rest(proc)
+        _, err_a = interrupt(proc_a)
     assert proc_a.returncode == 0, err_a
 
     doc = json.loads((tmp_path / "a" / "timing.json").read_text())

@@ -3,7 +3,6 @@ ROS (a geometry_msgs/msg/PointStamped) and the outputs are in the MCAP file with
 ROS 2 schemas, read back by rosbags; replayed without ROS, the components write the
 same messages again."""
 
-import signal
 from pathlib import Path
 
 import numpy as np
@@ -21,7 +20,7 @@ from rtcf._runtime._codec import codec_for
 from rtcf._runtime._mcap import McapRecording
 from rtcf._runtime._recording import Record, RecordedTopic
 
-from .._proc import read_rest, wait_for
+from .._proc import interrupt, read_rest, wait_for
 from .conftest import start_rtcf
 from .test_topics import spin_until
 
@@ -49,9 +48,7 @@ def test_a_recording_of_ros_inputs_and_message_outputs_replays_without_ros(ros_n
                 == m.header.frame_id, timeout=30, publish=lambda m=msg: pub.publish(m)
             )
     finally:
-        if proc.poll() is None:
-            proc.send_signal(signal.SIGINT)
-        _, err = read_rest(proc, timeout=60)
+        _, err = interrupt(proc)
     assert proc.returncode == 0, err
     assert f"into {path}; dropped: 0" in err
     store = get_typestore(Stores.ROS2_JAZZY)

@@ -16,6 +16,7 @@ from typing import Any
 import numpy as np
 import pytest
 
+import rtcf
 from rtcf import Serialized
 from rtcf._core._cdr import example_fields
 from rtcf._core._lanes import LocalLet
@@ -161,3 +162,16 @@ def test_a_stamp_anywhere(msgs: types.ModuleType) -> None:
     assert (s.header.stamp.sec, s.header.stamp.nanosec) == (3, 4) and s.stamp_ns == 3_000_000_004
     with pytest.raises(ValueError, match="not a builtin_interfaces/Time"):
         s.stamp_setter("header")
+
+
+def test_an_action_trace_keeps_each_feedbacks_message(msgs: types.ModuleType) -> None:
+    from rtcf._core._action_protocol import ActionEndpoint
+
+    fb = Serialized(msgs.State, position=1)
+    client = ActionEndpoint("/act")
+    for iteration in range(2):  # the writer rewrites the same Serialized each time
+        fb.position[:] = iteration
+        client.receive(rtcf.ActionEvent(rtcf.ActionEvent.FEEDBACK, 1, 2, fb), iteration)
+    kept = client.goals[1].feedback
+    assert [(k, type(m), m.position) for k, m in kept] == [
+        (0, msgs.State, [0.0]), (1, msgs.State, [1.0])]

@@ -15,7 +15,9 @@ from __future__ import annotations
 
 import enum
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, ClassVar
+
+from ._cdr import Serialized
 
 
 class GoalStatus(enum.IntEnum):
@@ -63,6 +65,7 @@ def next_status(status: int, event: int) -> GoalStatus | None:
     return _TABLE.get((status, event))
 
 
+@dataclass(slots=True, eq=False, repr=False)
 class ActionRequest:
     """What reaches an action server's component: a goal, or a request to cancel one.
 
@@ -71,43 +74,36 @@ class ActionRequest:
     ``goal`` the action's ``Goal`` message (None for a cancel).
     """
 
-    __slots__ = ("goal", "goal_id", "iteration", "kind", "uuid")
+    GOAL: ClassVar[int] = GOAL
+    CANCEL: ClassVar[int] = CANCEL
 
-    GOAL = GOAL
-    CANCEL = CANCEL
-
-    def __init__(self, kind: int, goal_id: int, uuid: bytes = b"", goal: Any = None) -> None:
-        self.kind = kind
-        self.goal_id = goal_id
-        self.uuid = uuid
-        self.goal = goal
-        self.iteration = -1  # the iteration the server handed it out in
+    kind: int
+    goal_id: int
+    uuid: bytes = b""
+    goal: Any = None
+    iteration: int = field(default=-1, init=False)  # the iteration the server handed it out in
 
     def __repr__(self) -> str:
         what = "GOAL" if self.kind == GOAL else "CANCEL"
         return f"<ActionRequest {what} {self.goal_id}>"
 
 
+@dataclass(slots=True, eq=False, repr=False)
 class ActionEvent:
     """What an action server's component tells its clients: ``kind`` RESPONSE (to a
     request: ``flags`` say which and whether accepted), FEEDBACK or RESULT, about
     ``goal_id``, with the goal's ``status`` after it and a ``message`` (Feedback,
     Result, or None)."""
 
-    __slots__ = ("flags", "goal_id", "kind", "message", "status")
+    RESPONSE: ClassVar[int] = RESPONSE
+    FEEDBACK: ClassVar[int] = FEEDBACK
+    RESULT: ClassVar[int] = RESULT
 
-    RESPONSE = RESPONSE
-    FEEDBACK = FEEDBACK
-    RESULT = RESULT
-
-    def __init__(
-        self, kind: int, goal_id: int, status: int, message: Any = None, flags: int = 0
-    ) -> None:
-        self.kind = kind
-        self.goal_id = goal_id
-        self.status = status
-        self.message = message
-        self.flags = flags
+    kind: int
+    goal_id: int
+    status: int
+    message: Any = None
+    flags: int = 0
 
     @property
     def accepted(self) -> bool:
@@ -169,10 +165,16 @@ class ActionEndpoint:
                     record._enter(iteration, ACCEPTED)
                     record._enter(iteration, EXECUTING)
         elif event.kind == FEEDBACK:
-            record.feedback.append((iteration, event.message))
+            record.feedback.append((iteration, _kept(event.message)))
         else:
-            record.result = event.message
+            record.result = _kept(event.message)
             record._enter(iteration, event.status)
+
+
+def _kept(message: Any) -> Any:
+    """A message as it was when written: a Serialized is rewritten in place by its
+    writer, so its rosidl message is kept."""
+    return message.to_message() if type(message) is Serialized else message
 
 
 def goal_uuid(goal_id: int) -> bytes:

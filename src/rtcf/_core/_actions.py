@@ -36,9 +36,33 @@ from ._action_protocol import (
 )
 from ._errors import ComponentError
 from ._loop_state import LoopState
+from ._names import validate_name
 from ._ports import InputPort, OutputPort
 
 _FREE = -1  # a table entry no goal holds
+
+
+def check_action(component: str, name: str, action_type: type, max_goals: int) -> None:
+    """Raise :class:`ComponentError` naming ``component`` and the action when
+    ``add_action_server``'s arguments are wrong: a type without ``Goal``, ``Result`` and
+    ``Feedback``, ``max_goals`` not a positive int, or an invalid name."""
+    missing = [k for k in ("Goal", "Result", "Feedback") if not hasattr(action_type, k)]
+    if missing:
+        raise ComponentError(
+            f"component {component!r}: action {name!r}: {action_type!r} has no "
+            f"{', '.join(missing)}; pass an action type such as "
+            "control_msgs.action.FollowJointTrajectory",
+            component=component,
+        )
+    if not isinstance(max_goals, int) or max_goals < 1:
+        raise ComponentError(
+            f"component {component!r}: action {name!r}: max_goals must be an int "
+            f">= 1, not {max_goals!r}",
+            component=component,
+        )
+    problem = validate_name(name, what=f"component {component!r}: action name")
+    if problem:
+        raise ComponentError(problem, component=component)
 
 
 class ActionServer:

@@ -25,7 +25,7 @@ from collections.abc import Callable
 from typing import Any, TypeVar
 
 from ._action_protocol import ActionEvent, ActionRequest
-from ._actions import ActionServer
+from ._actions import ActionServer, check_action
 from ._errors import ComponentError
 from ._faults import deadline_ns
 from ._log import ComponentLogger, LogRing, RecordSink
@@ -134,23 +134,7 @@ class Component:
         once. ``action_type`` is a ROS 2 action class, or any class with ``Goal``,
         ``Result`` and ``Feedback``. Two ports carry it: ``<name>/_action/requests`` and
         ``<name>/_action/events``."""
-        missing = [k for k in ("Goal", "Result", "Feedback") if not hasattr(action_type, k)]
-        if missing:
-            raise ComponentError(
-                f"component {self.full_name!r}: action {name!r}: {action_type!r} has no "
-                f"{', '.join(missing)}; pass an action type such as "
-                "control_msgs.action.FollowJointTrajectory",
-                component=self.full_name,
-            )
-        if not isinstance(max_goals, int) or max_goals < 1:
-            raise ComponentError(
-                f"component {self.full_name!r}: action {name!r}: max_goals must be an int "
-                f">= 1, not {max_goals!r}",
-                component=self.full_name,
-            )
-        problem = validate_name(name, what=f"component {self.full_name!r}: action name")
-        if problem:
-            raise ComponentError(problem, component=self.full_name)
+        check_action(self.full_name, name, action_type, max_goals)
         requests = self.add_input(f"{name}/_action/requests", ActionRequest)
         events = self.add_output(f"{name}/_action/events", ActionEvent)
         old = self._rtcf_actions.get(name)

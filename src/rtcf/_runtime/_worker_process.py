@@ -215,6 +215,9 @@ class WorkerProcess:
                     continue
                 if message[1] == "started":
                     self.hook = None  # the loop runs: its time is the watchdogs' business
+                    # the components' starts are in the outcome ring already: whoever
+                    # hears "started" sees them active
+                    self.pump()
                 self.on_event(message[1], message[2])
                 continue
             self.pump()

@@ -6,19 +6,17 @@ rejected, a goal is followed with feedback to SUCCESSFUL, and a cancel holds the
 
 from __future__ import annotations
 
-import time
 from typing import Any
 
 import numpy as np
 import pytest
-import rclpy
 from action_msgs.msg import GoalStatus
 from builtin_interfaces.msg import Duration
 from control_msgs.action import FollowJointTrajectory
-from rclpy.action import ActionClient
 from sensor_msgs.msg import JointState
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
+from .._action_client import action_client
 from ..test_topics import launched
 
 pytestmark = pytest.mark.integration
@@ -34,26 +32,8 @@ def arm():
 
 @pytest.fixture
 def client(arm, ros_node):
-    client = ActionClient(ros_node, FollowJointTrajectory, NAME)
-    assert client.wait_for_server(timeout_sec=30)
-    executor = rclpy.executors.SingleThreadedExecutor(context=ros_node.context)
-    executor.add_node(ros_node)
-
-    def wait(future: Any, timeout: float = 20.0) -> Any:
-        executor.spin_until_future_complete(future, timeout_sec=timeout)
-        assert future.done(), "no answer in time"
-        return future.result()
-
-    def until(predicate: Any, timeout: float = 10.0) -> bool:
-        deadline = time.monotonic() + timeout
-        while not predicate() and time.monotonic() < deadline:
-            executor.spin_once(timeout_sec=0.02)
-        return bool(predicate())
-
-    client.wait, client.until = wait, until
-    yield client
-    executor.remove_node(ros_node)
-    client.destroy()
+    with action_client(ros_node, FollowJointTrajectory, NAME) as client:
+        yield client
 
 
 def _goal(positions: dict[str, float], seconds: int = 1) -> FollowJointTrajectory.Goal:

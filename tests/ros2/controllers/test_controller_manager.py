@@ -62,7 +62,8 @@ def test_list_controllers_and_switch_one_off_while_the_others_run(ros_node, tmp_
     launch.write_text(WITH_REFUSER.format(launch=LAUNCH))
     proc = _proc.start_rtcf(env, "launch", launch, "--middleware", "ros2")
     try:
-        wait_running(proc)
+        # the components start when the loop does, after "running until Ctrl-C"
+        wait_running(proc, text="real-time:")
         listed = _list(ros_node)
         assert listed.pop("refuser") == (
             "active", "tests.ros2.controllers._plants.RefusesRestart", 200, False)

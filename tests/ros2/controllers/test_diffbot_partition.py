@@ -7,7 +7,6 @@ commands its loop read (their stamps and sequence numbers), the odometry its
 controller wrote, and the iteration's timing rows."""
 
 import select
-import signal
 import time
 
 import numpy as np
@@ -15,7 +14,7 @@ import pytest
 
 import rtcf.recording
 
-from ..._proc import finish, wait_for
+from ..._proc import interrupt, read_rest, wait_for
 from .._two_hosts import set_link, start_on, two_hosts
 from ..conftest import FIXTURES
 
@@ -45,7 +44,7 @@ def test_the_base_stops_by_itself_during_a_cut_and_drives_again_after_it(hosts, 
         wait_for(diffbot, "running until Ctrl-C", timeout=60)
         teleop = start_on(host_b, "-u", FIXTURES / "teleop.py", CMD, SPEED)
         ready, _, _ = select.select([teleop.stdout], [], [], 60)
-        assert ready and teleop.stdout.readline().strip() == "matched", finish(teleop)
+        assert ready and teleop.stdout.readline().strip() == "matched", interrupt(teleop)
         # the scenario's own times: drive, cut the cable, put it back, drive
         time.sleep(DRIVE)
         set_link(host_b, False)
@@ -54,8 +53,9 @@ def test_the_base_stops_by_itself_during_a_cut_and_drives_again_after_it(hosts, 
         time.sleep(DRIVE)
     finally:
         if teleop is not None:
-            finish(teleop, signal.SIGKILL)
-        _, err = finish(diffbot)
+            teleop.kill()
+            read_rest(teleop)
+        _, err = interrupt(diffbot)
     assert diffbot.returncode == 0, err
 
     rec = rtcf.recording.read(str(out / "run.mcap"))

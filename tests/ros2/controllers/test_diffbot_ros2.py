@@ -4,7 +4,6 @@ with rclpy doing what teleop and nav2 do: geometry_msgs/TwistStamped on
 base_link from /tf; MujocoDiffbot's ground truth from /diffbot/base_pose."""
 
 import math
-import signal
 import time
 
 import pytest
@@ -13,7 +12,7 @@ from nav_msgs.msg import Odometry
 from std_msgs.msg import Float64MultiArray
 from tf2_msgs.msg import TFMessage
 
-from ..._proc import read_rest, wait_for
+from ..._proc import interrupt, wait_for
 from ..conftest import start_rtcf
 from ..test_topics import spin_until
 
@@ -81,8 +80,6 @@ def test_cmd_vel_drives_the_base_odom_follows_it_and_it_stops_after_the_timeout(
         assert types["/tf"] == ["tf2_msgs/msg/TFMessage"]
         assert types["/diffbot_base_controller/odom"] == ["nav_msgs/msg/Odometry"]
     finally:
-        if proc.poll() is None:
-            proc.send_signal(signal.SIGINT)
-        _, err = read_rest(proc, timeout=60)
+        _, err = interrupt(proc)
     assert proc.returncode == 0, err
     assert "velocity command timed out: braking" in err

@@ -15,7 +15,7 @@ from control_msgs.msg import JointTolerance
 from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 import rtcf
-from rtcf import GoalStatus
+from rtcf import GoalStatus, Rate
 from rtcf.testing import Cancel, Goal, Trace, run_components, run_launch
 from rtcf_controllers.joint_trajectory_controller import JointTrajectoryController
 
@@ -111,7 +111,8 @@ def test_controller_state_reports_reference_feedback_and_error() -> None:
     trace = _run(40, {"state_publish_rate": 50.0}, plant={"stuck_s": 0.2},
                  inputs={TOPIC: _once(msg)})
     states = trace.outputs["/jtc/controller_state"]
-    assert states[0] is not None and states[1] is states[0]  # every other iteration at 100 Hz
+    stamps = [s.header.stamp.nanosec for s in states[:4]]
+    assert stamps == [0, 0, 20_000_000, 20_000_000]  # every other iteration at 100 Hz
     state = states[30]
     assert list(state.joint_names) == JOINTS
     assert list(state.reference.positions) == pytest.approx([0.3, -0.6])
@@ -173,6 +174,21 @@ def test_a_goal_reaches_its_end_successfully_with_feedback_at_the_monitor_rate()
     assert list(feedback.desired.positions) == pytest.approx([0.2, -0.2])
     assert list(feedback.actual.positions) == pytest.approx([0.2, -0.2])
     assert _positions(trace, 69) == pytest.approx([1.0, -1.0])
+
+
+def test_feedback_and_state_at_their_rates_when_the_controller_runs_slower() -> None:
+    goal = _goal(_trajectory(JOINTS, (1.0, [1.0, -1.0])))
+    jtc = {"joints": JOINTS, "command_interfaces": ["position"],
+           "state_interfaces": ["position", "velocity"], "action_monitor_rate": 10.0,
+           "state_publish_rate": 25.0}
+    specs = [rtcf.ComponentSpec("arm", Kinematic, params={"initial_positions": [0.0, 0.0]},
+                                is_first=True),
+             rtcf.ComponentSpec("jtc", JointTrajectoryController, params=jtc,
+                                rate=Rate(rate=50.0, phase=0))]  # every other iteration
+    trace = run_components(specs, 60, frequency=HZ, actions={ACTION: {0: goal}})
+    assert [i for i, _ in _goals(trace)[goal.id].feedback] == [0, 10, 20, 30, 40, 50]
+    stamps = {s.header.stamp.nanosec // 10_000_000 for s in trace.outputs["/jtc/controller_state"]}
+    assert sorted(stamps) == [0, 4, 8, 12, 16, 20, 24, 28, 32, 36, 40, 44, 48, 52, 56]
 
 
 def test_a_goal_naming_an_unknown_joint_is_rejected_and_nothing_moves() -> None:
