@@ -125,3 +125,10 @@ def rtcf_shm_names():
         return sorted(n for n in os.listdir("/dev/shm") if n.startswith("rtcf"))
     except FileNotFoundError:
         return []
+
+
+def wait_for_count(proc, text, count, timeout=30.0):
+    """Read ``proc``'s stderr until ``text`` has shown ``count`` times; return it all."""
+    return _wait_until(
+        proc, lambda s: s if s.count(text) >= count else "", f"{count} x {text!r}", timeout
+    )

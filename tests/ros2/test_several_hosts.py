@@ -17,7 +17,6 @@ traffic went over the link.
 """
 
 import json
-import os
 import struct
 import subprocess
 import sys
@@ -25,25 +24,16 @@ from pathlib import Path
 
 import pytest
 
+from ._two_hosts import _hosts, host_env, start_on, two_hosts
 from .conftest import rtcf_env
 
 pytestmark = pytest.mark.integration
-
-BENCHMARKS = Path(__file__).resolve().parents[2] / "benchmarks"
-sys.path.insert(0, str(BENCHMARKS))
-import _hosts  # noqa: E402  (benchmarks/_hosts.py: ros2_latency.py --hosts 2 uses it too)
-
-sys.path.pop(0)
 
 
 @pytest.fixture
 def hosts():
     """Two network namespaces joined by a veth pair; removed afterwards."""
-    if os.geteuid() != 0:
-        pytest.fail(f"test_several_hosts: {_hosts.NEEDS}: run the ROS 2 suite as root, "
-                    "as CI does")
-    with _hosts.two_hosts() as pair:
-        yield pair
+    yield from two_hosts("test_several_hosts")
 
 
 def _launch(tmp_path: Path, name: str, frequency: float, nodes: str) -> Path:
@@ -69,15 +59,10 @@ def _stage(name: str, out: str, *inputs: str, fb: str = "") -> str:
 
 
 def _start(host, launch: Path, duration: float, out: Path) -> subprocess.Popen:
-    env = {**rtcf_env(), **_hosts.UDP_ONLY}
-    env["PYTHONPATH"] += os.pathsep + str(BENCHMARKS)  # the Stage component
-    env.pop("ROS_LOCALHOST_ONLY", None)
-    env.pop("ROS_AUTOMATIC_DISCOVERY_RANGE", None)
-    cmd = host.command(sys.executable, "-m", "rtcf", "launch", str(launch), "--middleware",
-                       "ros2", "--duration", str(duration), "--record", str(out / "run.mcap"),
-                       "--report", str(out))
-    return subprocess.Popen(cmd, stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-                            stdin=subprocess.DEVNULL, text=True, env=env)
+    # (host_env puts benchmarks/ on the path: the Stage component)
+    return start_on(host, "-m", "rtcf", "launch", launch, "--middleware", "ros2",
+                    "--duration", duration, "--record", out / "run.mcap", "--report", out,
+                    env=host_env())
 
 
 def _values(path: Path, topic: str) -> list[float]:
