@@ -1,6 +1,7 @@
-"""Hardware for the controllers' tests: joints that go where they are told, and a mass
-pushed by an effort. Each writes ros2_control's state interfaces as float64 arrays, one
-value per joint, and runs first (``is_first``), as a driver does."""
+"""Hardware for the controllers' tests: joints that go where they are told, wheels that
+turn as fast as they are told, and a mass pushed by an effort. Each writes ros2_control's
+state interfaces as float64 arrays, one value per joint, and runs first (``is_first``),
+as a driver does."""
 
 from __future__ import annotations
 
@@ -35,20 +36,37 @@ class Mass(rtcf.Component):
     """Point masses of ``~mass`` kg on a line, ``effort_command`` the force on each
     (none yet: 0), integrated by semi-implicit Euler once per period."""
 
+    command_name, default_joints = "effort_command", 1
+
     def configure(self) -> None:
-        n = int(self.params.get("~joints", 1))
+        n = int(self.params.get("~joints", self.default_joints))
         self.mass = float(self.params.get("~mass", 1.0))
         self.x = np.zeros(n)
         self.v = np.zeros(n)
-        self.effort_command = self.add_input("effort_command", np.ndarray)
+        self.command = self.add_input(self.command_name, np.ndarray)
         self.position = self.add_output("position", np.ndarray)
         self.velocity = self.add_output("velocity", np.ndarray)
 
     def update(self) -> None:
-        force = self.effort_command.read()
+        force = self.command.read()
         if force is not None:
             self.v = self.v + force / self.mass * self.period
             self.x = self.x + self.v * self.period
+        self.position.write(self.x)
+        self.velocity.write(self.v)
+
+
+class VelocityJoints(Mass):
+    """``~joints`` joints (2: a base's wheels) that turn at ``velocity_command`` at once
+    (none yet: 0): ``position`` integrates it once per period, ``velocity`` is it."""
+
+    command_name, default_joints = "velocity_command", 2
+
+    def update(self) -> None:
+        command = self.command.read()
+        if command is not None:
+            self.v = command
+        self.x = self.x + self.v * self.period
         self.position.write(self.x)
         self.velocity.write(self.v)
 

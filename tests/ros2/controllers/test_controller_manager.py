@@ -78,6 +78,14 @@ def test_list_controllers_and_switch_one_off_while_the_others_run(ros_node, tmp_
             "arm_effort_controller": (
                 "active", "effort_controllers/JointGroupEffortController", 200, False),
             "wheel_pid_controller": ("active", "pid_controller/PidController", 200, False),
+            "head/hardware": ("active", "tests.ros2.controllers._plants.PositionJoints", 200,
+                              False),
+            "base/hardware": ("active", "tests.ros2.controllers._plants.VelocityJoints", 200,
+                              False),
+            "head_controller": (
+                "active", "joint_trajectory_controller/JointTrajectoryController", 200, False),
+            "base_controller": (
+                "active", "diff_drive_controller/DiffDriveController", 200, False),
         }
 
         # STRICT with a name that does not exist: refused, nothing switched

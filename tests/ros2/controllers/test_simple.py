@@ -1,8 +1,9 @@
 """rtcf_controllers' joint_state_broadcaster, forward_command_controller (and its
 position/velocity/effort siblings) and pid_controller, in-process on the simulated
-clock (rtcf.testing): configured by a ros2_controllers YAML file through a ROS 2
-launch file, commands refused as ros2_controllers refuses them, the PID against
-numbers worked out by hand from control_toolbox's formulas."""
+clock (rtcf.testing): configured, with a joint_trajectory_controller and a
+diff_drive_controller, by one ros2_controllers YAML file through a ROS 2 launch
+file; commands refused as ros2_controllers refuses them; the PID against numbers
+worked out by hand from control_toolbox's formulas."""
 
 from __future__ import annotations
 
@@ -12,16 +13,23 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from builtin_interfaces.msg import Duration
+from control_msgs.action import FollowJointTrajectory
 from control_msgs.msg import MultiDOFCommand
+from geometry_msgs.msg import TwistStamped
 from std_msgs.msg import Float64MultiArray
+from trajectory_msgs.msg import JointTrajectory, JointTrajectoryPoint
 
 import rtcf
-from rtcf.testing import run_components, run_launch
+from rtcf import GoalStatus
+from rtcf.testing import SILENCE, Goal, run_components, run_launch
 from rtcf_controllers import (
+    DiffDriveController,
     ForwardCommandController,
     JointGroupEffortController,
     JointGroupPositionController,
     JointStateBroadcaster,
+    JointTrajectoryController,
     PidController,
 )
 
@@ -44,6 +52,19 @@ def _records(caplog: pytest.LogCaptureFixture, words: str) -> list[str]:
 # -- a ros2_controllers YAML file, through a ROS 2 launch file ------------------------
 
 
+def _head_goal() -> Goal:
+    """head_pan_joint alone (allow_partial_joints_goal) to 0.4 rad in 0.3 s."""
+    point = JointTrajectoryPoint(positions=[0.4], time_from_start=Duration(nanosec=300_000_000))
+    return Goal(FollowJointTrajectory.Goal(trajectory=JointTrajectory(
+        joint_names=["head_pan_joint"], points=[point])), id=1)
+
+
+def _cmd_vel(linear: float) -> TwistStamped:
+    message = TwistStamped()  # stamp 0: now
+    message.twist.linear.x = linear
+    return message
+
+
 def test_a_ros2_controllers_yaml_file_configures_every_controller() -> None:
     command = _command(0.5, -0.25, 1.0)
     trace = run_launch(
@@ -51,7 +72,10 @@ def test_a_ros2_controllers_yaml_file_configures_every_controller() -> None:
         inputs={
             "/forward_position_controller/commands": command,
             "/wheel_pid_controller/reference": _reference([1.0], [0.0], ["wheel_joint"]),
+            # 2 m/s, over the YAML file's 0.8 m/s limit, for 0.5 s; then nothing
+            "/base_controller/cmd_vel": [_cmd_vel(2.0)] * 500 + [SILENCE],
         },
+        actions={"/head_controller/follow_joint_trajectory": {0: _head_goal()}},
     )
     c = trace.components
     jsb = c["/joint_state_broadcaster"]
@@ -69,7 +93,19 @@ def test_a_ros2_controllers_yaml_file_configures_every_controller() -> None:
         "forward_command_controller/ForwardCommandController",
         "effort_controllers/JointGroupEffortController",
         "pid_controller/PidController",
+        "joint_trajectory_controller/JointTrajectoryController",
+        "diff_drive_controller/DiffDriveController",
     ]
+    head = c["/head_controller"]
+    assert isinstance(head, JointTrajectoryController)
+    assert (head.joints, head.cfg.allow_partial) == (["head_pan_joint", "head_tilt_joint"], True)
+    assert (head.cfg.feedback_every, head.cfg.state_every) == (100, 40)  # 10 Hz, 25 Hz
+    tolerances = head.cfg.defaults  # constraints: goal 0.01, stopped velocity 0.05
+    assert (tolerances.goal_time, tolerances.goal[:2].tolist(), tolerances.path[0].tolist()) == (
+        0.5, [[0.01, 0.01], [0.05, 0.05]], [0.2, 0.2])
+    base = c["/base_controller"]
+    assert isinstance(base, DiffDriveController)
+    assert (base.separation, base.left_radius, base.timeout_ns) == (0.4, 0.1, 250_000_000)
 
     # the command reached the arm, and /joint_states says so at the broadcaster's 100 Hz
     assert trace.last("/arm/position_command").tolist() == [0.5, -0.25, 1.0]
@@ -92,6 +128,25 @@ def test_a_ros2_controllers_yaml_file_configures_every_controller() -> None:
     assert (state.name, state.reference, state.feedback) == ("wheel_joint", 1.0, wheel[0])
     assert state.output == trace.last("/wheel/effort_command")[0]
     assert state.time_step == pytest.approx(0.001)
+
+    # the head's partial goal: followed to SUCCEEDED, feedback at 10 Hz, the tilt held
+    goal = trace.actions["/head_controller/follow_joint_trajectory"].goals[1]
+    assert goal.status == GoalStatus.SUCCEEDED
+    assert [i for i, _ in goal.feedback][:3] == [0, 100, 200]
+    assert trace.last("/head/position").tolist() == pytest.approx([0.4, 0.0])
+    head_states = trace.outputs["/head_controller/controller_state"]
+    assert head_states[40].header.stamp.nanosec - head_states[39].header.stamp.nanosec == (
+        40_000_000)  # 25 Hz
+
+    # the base: the wheels at the limit (0.8 m/s on 0.1 m wheels) while cmd_vel comes,
+    # stopped within cmd_vel_timeout (0.25 s) of the last one; odom in the YAML's frames
+    wheels = [v.tolist() for v in trace.outputs["/base/velocity_command"]]
+    assert wheels[499] == pytest.approx([8.0, 8.0])
+    assert wheels[-1] == [0.0, 0.0]
+    assert 499 < wheels.index([0.0, 0.0], 1) <= 499 + 250 + 1
+    odom = trace.last("/base_controller/odom")
+    assert (odom.header.frame_id, odom.child_frame_id) == ("odom", "base_footprint")
+    assert odom.pose.pose.position.x == pytest.approx(trace.last("/base/position")[0] * 0.1)
 
 
 # -- forward_command_controller ---------------------------------------------------------
