@@ -90,7 +90,7 @@ class Goals:
         log = controller.log
         # counted in the controller's own runs (its `rate` may be below the loop's)
         runs = (controller.iteration - self.goal_iteration) // controller.every
-        if runs % controller.cfg.feedback_every == 0:
+        if controller.cfg.feedback.due(runs):
             self.action.publish_feedback(goal, self.messages.feedback(
                 controller, controller.desired, controller.actual, controller.error))
         tolerances = self.tolerances

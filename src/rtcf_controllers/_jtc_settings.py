@@ -8,6 +8,7 @@ what rtcf does not support is refused here, naming the parameter.
 from __future__ import annotations
 
 import dataclasses
+from fractions import Fraction
 from typing import Any
 
 import numpy as np
@@ -66,6 +67,29 @@ class Pids:
             out[j] += pid.compute_with_rate(float(error[j]), float(error_dot[j]), dt)
 
 
+@dataclasses.dataclass(frozen=True)
+class Cadence:
+    """A publication at ``rate`` Hz from a controller that runs at ``frequency`` Hz: in
+    its run ``k`` when ``floor(k * rate / frequency)`` steps (run 0 included). Where the
+    period is no whole number of runs (20 Hz from 250 Hz: 12.5), the runs apart
+    alternate (13, 12, 13, ...) and the rate is exact on average, as a ROS timer at that
+    rate firing between the controller's updates would be; rounding to one whole
+    number of runs would publish at 20.8 Hz."""
+
+    num: int
+    den: int
+
+    @classmethod
+    def of(cls, rate: float, frequency: float) -> Cadence:
+        ratio = Fraction(rate).limit_denominator(10**6) / Fraction(frequency).limit_denominator(
+            10**6)
+        return cls(ratio.numerator, ratio.denominator)
+
+    def due(self, run: int) -> bool:
+        """Whether the controller's ``run``-th run publishes (integers only: in the loop)."""
+        return run == 0 or (run * self.num) // self.den != ((run - 1) * self.num) // self.den
+
+
 @dataclasses.dataclass
 class Settings:
     """What the controller's parameters say (docs/controllers.md lists them)."""
@@ -77,8 +101,8 @@ class Settings:
     allow_nonzero_end: bool
     from_desired: bool  # interpolate_from_desired_state (or open_loop_control)
     interpolate: bool  # interpolation_method: splines
-    feedback_every: int  # iterations between feedback messages
-    state_every: int  # iterations between controller_state messages (0: never)
+    feedback: Cadence  # feedback messages (action_monitor_rate)
+    state: Cadence | None  # controller_state messages (state_publish_rate; None: never)
     defaults: Tolerances
     cmd_timeout: float  # 0: off
     pid: Pids | None  # for a lone velocity or effort command
@@ -124,8 +148,8 @@ def read_settings(component: Any) -> Settings:
         from_desired=p.flag("interpolate_from_desired_state", False) or open_loop,
         interpolate=p.text("interpolation_method", "splines",
                            choices=("splines", "none")) == "splines",
-        feedback_every=max(1, round(frequency / monitor_rate)),
-        state_every=max(1, round(frequency / state_rate)) if state_rate > 0 else 0,
+        feedback=Cadence.of(monitor_rate, frequency),
+        state=Cadence.of(state_rate, frequency) if state_rate > 0 else None,
         defaults=defaults,
         cmd_timeout=cmd_timeout if cmd_timeout > defaults.goal_time else 0.0,
         pid=Pids(p, joints) if use_pid else None,

@@ -159,7 +159,8 @@ class JointTrajectoryController(rtcf.Component):
                            else f"cmd_timeout {self.cfg.cmd_timeout:g} s")
             self.hold()
         # the rates count this controller's runs (its `rate` may be below the loop's)
-        if self.cfg.state_every and (self.iteration // self.every) % self.cfg.state_every == 0:
+        state = self.cfg.state
+        if state is not None and state.due(self.iteration // self.every):
             self._publish_state(t - (trajectory.start or 0.0))
 
     def _command(self, error: np.ndarray) -> None:

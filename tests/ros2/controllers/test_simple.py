@@ -32,6 +32,7 @@ from rtcf_controllers import (
     JointTrajectoryController,
     PidController,
 )
+from rtcf_controllers._jtc_settings import Cadence
 
 FIXTURES = Path(__file__).parent / "fixtures"
 
@@ -99,7 +100,7 @@ def test_a_ros2_controllers_yaml_file_configures_every_controller() -> None:
     head = c["/head_controller"]
     assert isinstance(head, JointTrajectoryController)
     assert (head.joints, head.cfg.allow_partial) == (["head_pan_joint", "head_tilt_joint"], True)
-    assert (head.cfg.feedback_every, head.cfg.state_every) == (100, 40)  # 10 Hz, 25 Hz
+    assert (head.cfg.feedback, head.cfg.state) == (Cadence(1, 100), Cadence(1, 40))  # 10, 25 Hz
     tolerances = head.cfg.defaults  # constraints: goal 0.01, stopped velocity 0.05
     assert (tolerances.goal_time, tolerances.goal[:2].tolist(), tolerances.path[0].tolist()) == (
         0.5, [[0.01, 0.01], [0.05, 0.05]], [0.2, 0.2])
