@@ -1,7 +1,9 @@
 """The controller manager's services from outside: an rclpy client in this process calls
 ``/controller_manager/list_controllers`` and ``switch_controller`` of an ``rtcf launch
 --middleware ros2`` of the controllers' example (simple.launch.xml, configured by its
-ros2_controllers YAML file), as ``ros2 control`` and rqt_controller_manager do."""
+ros2_controllers YAML file), as ``ros2 control`` and rqt_controller_manager do; and a
+publisher of ``/forward_position_controller/commands`` whose command of the wrong length
+is refused."""
 
 from __future__ import annotations
 
@@ -9,7 +11,10 @@ from pathlib import Path
 
 import pytest
 from controller_manager_msgs.srv import ListControllers, SwitchController
+from rcl_interfaces.msg import Log
+from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
+from std_msgs.msg import Float64MultiArray
 
 from ... import _proc
 from ..conftest import rtcf_env
@@ -45,7 +50,7 @@ def _states(node) -> dict[str, str]:
 WITH_REFUSER = """<launch>
   <include file="{launch}">
     <arg name="frequency" value="200.0"/>
-    <arg name="ros_topics" value="/joint_states"/>
+    <arg name="ros_topics" value="/joint_states|/forward_position_controller/commands"/>
   </include>
   <node pkg="rtcf" exec="rt_launcher" name="refuser"
         args="tests.ros2.controllers._plants RefusesRestart"/>
@@ -58,6 +63,12 @@ def test_list_controllers_and_switch_one_off_while_the_others_run(ros_node, tmp_
     env["PYTHONPATH"] = f"{ROOT}:{env['PYTHONPATH']}"
     joint_states: list[JointState] = []
     ros_node.create_subscription(JointState, "/joint_states", joint_states.append, 10)
+    records: list[Log] = []
+    ros_node.create_subscription(Log, "/rosout", records.append, QoSProfile(
+        depth=1000, reliability=ReliabilityPolicy.RELIABLE,
+        durability=DurabilityPolicy.TRANSIENT_LOCAL))
+    commands = ros_node.create_publisher(
+        Float64MultiArray, "/forward_position_controller/commands", 10)
     launch = tmp_path / "cm.launch.xml"
     launch.write_text(WITH_REFUSER.format(launch=LAUNCH))
     proc = _proc.start_rtcf(env, "launch", launch, "--middleware", "ros2")
@@ -87,6 +98,22 @@ def test_list_controllers_and_switch_one_off_while_the_others_run(ros_node, tmp_
             "base_controller": (
                 "active", "diff_drive_controller/DiffDriveController", 200, False),
         }
+
+        # a command of the wrong length is refused, logged with the lengths, and the
+        # arm stays where it starts (no command yet); one of the right length moves it
+        refused = lambda: [r for r in records if "commands refused" in r.msg]  # noqa: E731
+        assert spin_until(ros_node, refused, publish=lambda: commands.publish(
+            Float64MultiArray(data=[1.0, 1.0]))), "no refusal on /rosout"
+        assert refused()[0].msg == ("/forward_position_controller/commands refused: 2 values "
+                                    "for 3 joints (joint1, joint2, joint3); the last command "
+                                    "stays")
+        joint_states.clear()
+        assert spin_until(ros_node, lambda: len(joint_states) >= 3), "no /joint_states"
+        assert list(joint_states[-1].position[:3]) == [0.0, 0.3, 0.6]
+        right = [0.2, -0.1, 0.4]
+        assert spin_until(ros_node, lambda: bool(joint_states) and list(
+            joint_states[-1].position[:3]) == right, publish=lambda: commands.publish(
+            Float64MultiArray(data=right))), "the right-length command did not move the arm"
 
         # STRICT with a name that does not exist: refused, nothing switched
         ok, message = _switch(ros_node, deactivate=["forward_position_controller", "nope"])
