@@ -56,17 +56,24 @@ def test_the_mapped_action_is_said_and_the_unmapped_one_has_no_server(served, cl
 
 
 def test_a_goal_is_accepted_fed_back_and_succeeds(client):
-    feedback = []
-    handle = client.wait(client.send_goal_async(
-        Fibonacci.Goal(order=20), feedback_callback=lambda m: feedback.append(m.feedback)
-    ))
-    assert handle.accepted
-    answer = client.wait(handle.get_result_async())
-    assert answer.status == GoalStatus.STATUS_SUCCEEDED
-    sequence = list(answer.result.sequence)
-    assert sequence == _fibonacci(21)
-    # the first may precede the subscription's match; the last may come after the result
-    # (a topic and a service: ROS orders nothing between them)
+    # wait_for_server sees the server's feedback publisher in the graph, not that it has
+    # matched this client's new (volatile) feedback subscription: a first goal's 0.2 s of
+    # feedback may all go out before the match (seen once in CI). Goals until one is fed
+    # back; from then on the match is made and reliable delivery holds.
+    for _attempt in range(3):
+        feedback = []
+        handle = client.wait(client.send_goal_async(
+            Fibonacci.Goal(order=20), feedback_callback=lambda m, f=feedback: f.append(m.feedback)
+        ))
+        assert handle.accepted
+        answer = client.wait(handle.get_result_async())
+        assert answer.status == GoalStatus.STATUS_SUCCEEDED
+        sequence = list(answer.result.sequence)
+        assert sequence == _fibonacci(21)
+        # the last may come after the result (a topic and a service: ROS orders nothing
+        # between them)
+        if client.until(lambda f=feedback: bool(f), timeout=2.0):
+            break
     assert client.until(lambda: feedback and len(feedback[-1].sequence) == len(sequence))
     assert all(list(f.sequence) == sequence[: len(f.sequence)] for f in feedback)
 
