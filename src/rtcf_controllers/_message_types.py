@@ -15,9 +15,11 @@ from typing import Any
 import rtcf
 
 # where each package comes from, for the error that says it is missing
-_HOW = {
-    "control_msgs": "bash scripts/setup-ros2 VENV builds it (docs/ros2.md), or "
-    "apt install ros-jazzy-control-msgs with a ROS 2 installation",
+_BUILT = ("bash scripts/setup-ros2 VENV builds it (docs/ros2.md), or apt install "
+          "ros-jazzy-{} with a ROS 2 installation")
+_HOW = {  # the packages PyPI lacks (ros2_interfaces/)
+    package: _BUILT.format(package.replace("_", "-"))
+    for package in ("control_msgs", "tf2_msgs", "controller_manager_msgs")
 }
 _WHEELS = "pip install 'rtcf[ros2]' (the ROS 2 Jazzy wheels)"
 
