@@ -58,8 +58,8 @@ def test_the_mapped_action_is_said_and_the_unmapped_one_has_no_server(served, cl
 def test_a_goal_is_accepted_fed_back_and_succeeds(client):
     # wait_for_server sees the server's feedback publisher in the graph, not that it has
     # matched this client's new (volatile) feedback subscription: a first goal's 0.2 s of
-    # feedback may all go out before the match (seen once in CI). Goals until one is fed
-    # back; from then on the match is made and reliable delivery holds.
+    # feedback may go out before the match (seen once in CI). Goals until one is fed
+    # back from its first term; from then on the match is made.
     for _attempt in range(3):
         feedback = []
         handle = client.wait(client.send_goal_async(
@@ -70,11 +70,18 @@ def test_a_goal_is_accepted_fed_back_and_succeeds(client):
         assert answer.status == GoalStatus.STATUS_SUCCEEDED
         sequence = list(answer.result.sequence)
         assert sequence == _fibonacci(21)
-        # the last may come after the result (a topic and a service: ROS orders nothing
-        # between them)
-        if client.until(lambda f=feedback: bool(f), timeout=2.0):
+        if client.until(lambda f=feedback: bool(f), timeout=2.0) and len(
+                feedback[0].sequence) == 3:
             break
-    assert client.until(lambda: feedback and len(feedback[-1].sequence) == len(sequence))
+    # One feedback per iteration, 3 to 21 terms. Reliable delivery: none lost or
+    # reordered on the way. But the tail may be missing: the topic and the result's
+    # service are not ordered, and rclpy's client takes one feedback per executor pass
+    # and forgets the goal's feedback callback once its result is taken (rclcpp's does
+    # too), so what is still queued then is dropped (seen under load: the last 1 to 3).
+    client.until(lambda: len(feedback[-1].sequence) == len(sequence), timeout=1.0)
+    lengths = [len(f.sequence) for f in feedback]
+    assert lengths == list(range(3, 3 + len(lengths))), lengths
+    assert len(lengths) >= 10, lengths  # a backlog of 10 would overflow its keep_last 10
     assert all(list(f.sequence) == sequence[: len(f.sequence)] for f in feedback)
 
 
