@@ -16,6 +16,7 @@ from typing import Any
 import pytest
 
 from rtcf import ComponentSpec, RtcfError, RunnerSettings
+from rtcf._core._faults import FailurePolicy
 from rtcf._core._lifecycle import TransitionOutcome
 from rtcf._core._log import LogRecord
 from rtcf._runtime._requests import Request, RequestQueue, serve_request
@@ -197,3 +198,35 @@ def test_what_a_fault_policy_takes_out_is_a_lifecycle_change_the_supervisor_hear
         ("/ramp", "deactivate", "inactive"), ("/follower", "deactivate", "inactive"),
         ("/follower", "activate", "active"),
     ]
+
+
+def test_inputs_past_their_deadline_are_named_from_every_lane() -> None:
+    """/diagnostics, the status line and component_info read live_status(): an input
+    in another lane than main is named there too."""
+    mod = "rtcf_lifecycle_components"
+    with WorkerRunner(RunnerSettings(frequency=FREQUENCY)) as runner:
+        runner.load(ComponentSpec("ramp", module=mod, class_name="Ramp"))
+        for name, lane in (("near", "main"), ("far", "other")):
+            policy = FailurePolicy.from_params({"deadline/x": 0.05}, f"/{name}")
+            runner.load(ComponentSpec(name, module=mod, class_name="Follower", lane=lane,
+                                      policy=policy))
+
+        def operate() -> None:
+            try:
+                wait_until(lambda: runner.loop_running and runner.live_status().iterations > 20)
+                assert runner.live_status().past_deadline == ()  # the ramp writes /x
+                assert runner.change_state("/ramp", "deactivate").ok
+                wait_until(lambda: len(runner.live_status().past_deadline) == 2)
+                seen.append(runner.live_status())
+            finally:
+                runner.request_stop()
+
+        seen: list[Any] = []
+        t = threading.Thread(target=operate)
+        t.start()
+        runner.run(None)
+        t.join()
+        status = seen[0]
+        assert sorted(status.past_deadline) == ["/far.x", "/near.x"]
+        assert status.deadline_misses >= 2
+        assert runner.shutdown() == []

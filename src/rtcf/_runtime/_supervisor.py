@@ -239,10 +239,15 @@ class WorkerRunner:
         )
 
     def past_deadline(self) -> tuple[tuple[str, ...], int]:
-        """The inputs past their deadline now, by name, and how many times any passed it."""
+        """The inputs past their deadline now, by name, and how many times any passed
+        it: this worker's, then every other lane's."""
         bits, misses = self._process.deadline_words
         names = self.runs.deadline_names
-        return tuple(n for k, n in enumerate(names[:63]) if bits >> k & 1), misses
+        past = tuple(n for k, n in enumerate(names[:63]) if bits >> k & 1)
+        for lane in self._lanes.workers.values():
+            more, their_misses = lane.past_deadline()
+            past, misses = past + more, misses + their_misses
+        return past, misses
 
     # -- the runner's verbs ------------------------------------------------------
     def admits(self, what: str, module: str | None = None, component: str | None = None,
