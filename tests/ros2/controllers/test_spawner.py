@@ -21,12 +21,11 @@ from controller_manager_msgs.srv import (
     SwitchController,
     UnloadController,
 )
-from rcl_interfaces.msg import Log
-from rclpy.qos import DurabilityPolicy, QoSProfile, ReliabilityPolicy
 from sensor_msgs.msg import JointState
 
 from ... import _proc
 from ..conftest import rtcf_env
+from ..test_logging import rosout
 from ..test_parameters import call
 from ..test_topics import spin_until
 
@@ -73,10 +72,7 @@ def test_a_spawners_sequence_loads_configures_and_activates_a_controller_by_name
     yaml.write_text(CONTROLLERS)
     joint_states: list[JointState] = []
     ros_node.create_subscription(JointState, "/joint_states", joint_states.append, 10)
-    records: list[Log] = []
-    ros_node.create_subscription(Log, "/rosout", records.append, QoSProfile(
-        depth=1000, reliability=ReliabilityPolicy.RELIABLE,
-        durability=DurabilityPolicy.TRANSIENT_LOCAL))
+    records = rosout(ros_node)
 
     def logged(text: str) -> bool:
         return spin_until(ros_node, lambda: any(r.msg == text for r in records))
