@@ -85,6 +85,12 @@ def test_update_rate_sets_the_frequency_unless_given_and_different(tmp_path: Pat
     message = str(info.value)
     assert "rt_runner /r" in message and "1000" in message and "250" in message
     assert "\n" not in message
+    # an update_rate the loop cannot run at is the runner's error, naming the file
+    fast = read_setup([write(tmp_path, "controller_manager:\n  ros__parameters:\n"
+                             "    update_rate: 2000000\n", "fast.yaml")], "/controller_manager")
+    with pytest.raises(ConfigurationError) as info:
+        fast.set_frequency(RunnerSettings.from_params({}), given=False, where="rt_runner /r")
+    assert "fast.yaml" in str(info.value) and "not feasible" in str(info.value)
 
 
 @pytest.mark.parametrize(

@@ -84,6 +84,7 @@ class ControllerSetup:
         if not given:
             settings.frequency = self.update_rate
             settings.notes = [n for n in settings.notes if "no frequency given" not in n]
+            settings.validate(f"{where} (update_rate of {', '.join(self.files)})")
         elif settings.frequency != self.update_rate:
             raise ConfigurationError(
                 f"{where}: frequency {settings.frequency:g} Hz and the controller manager "
