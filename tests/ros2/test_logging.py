@@ -10,14 +10,21 @@ from .test_topics import spin_until
 pytestmark = pytest.mark.integration
 
 
-def test_component_logs_reach_rosout_with_name_and_severity(ros_node):
-    records = []
+def rosout(node) -> list[Log]:
+    """What /rosout carries from now on (and what was sent before we joined), as it
+    arrives while ``node`` spins."""
+    records: list[Log] = []
     qos = QoSProfile(
         depth=1000,
         reliability=ReliabilityPolicy.RELIABLE,
-        durability=DurabilityPolicy.TRANSIENT_LOCAL,  # also what was sent before we joined
+        durability=DurabilityPolicy.TRANSIENT_LOCAL,
     )
-    ros_node.create_subscription(Log, "/rosout", records.append, qos)
+    node.create_subscription(Log, "/rosout", records.append, qos)
+    return records
+
+
+def test_component_logs_reach_rosout_with_name_and_severity(ros_node):
+    records = rosout(ros_node)
     proc = start_rtcf(
         "launch", "rtcf_examples", "logging.launch", "--middleware", "ros2", "--duration", "2"
     )

@@ -233,6 +233,7 @@ def cmd_launch(ns: argparse.Namespace) -> int:
         bridge=bridge,
     )
     runner.say_lanes = False  # its lanes line below says where each lane runs
+    runner.controller_setup = target.controllers  # list_controller_types, load refusals
     status = 0
     previous = _install_stop_handlers(runner)
     try:

@@ -60,6 +60,9 @@ class ComponentSpec:
     policy: FailurePolicy = field(default_factory=FailurePolicy)
     rate: Rate = field(default_factory=Rate)  # how often it runs (rate, every, phase)
     lane: str = ""  # the worker process (lane) it runs in; "" or "main": the runner's own
+    # False: it stays inactive when the loop next starts, until a lifecycle transition
+    # (a controller loaded by load_controller, which ros2_control leaves unconfigured)
+    autostart: bool = True
 
     @property
     def full_name(self) -> str:
@@ -190,7 +193,7 @@ class Components:
             raise fail(exc.message) from None
         component._rtcf_configured = True
         component.params.sealed = True
-        self.entries[full] = Loaded(spec, component, ignore)
+        self.entries[full] = Loaded(spec, component, ignore, autostart=spec.autostart)
         return component
 
     def entry(self, name: str) -> Loaded:

@@ -17,11 +17,12 @@ from typing import Any
 from .._core._errors import ConfigurationError, LaunchError, Location
 from .._core._faults import FailurePolicy
 from .._core._lane_names import lane_from_params
-from .._core._names import join, normalize_namespace
+from .._core._names import expand, join, normalize_namespace
 from .._core._params import ParameterStore
 from .._core._rates import Rate
 from .._core._runner import ComponentSpec
 from .._core._settings import RunnerSettings
+from ._controller_setup import ControllerSetup, read_setup
 from ._description import LaunchDescription, NodeDescription
 
 PACKAGE = "rtcf"
@@ -56,6 +57,9 @@ class RunnerDeployment:
     # what the launch file sets in the runner node's environment (<env>), e.g.
     # ROSCONSOLE_CONFIG_FILE; roslaunch would start the runner's process with it
     env: dict[str, str] = field(default_factory=dict)
+    # its controller manager's section of the <param from=...> files (update_rate, the
+    # controllers' types and parameters), if it was given any
+    controllers: ControllerSetup | None = None
 
 
 @dataclass
@@ -102,6 +106,11 @@ def plan(description: LaunchDescription) -> Deployment:
             where = f"rt_runner {node.full_name!r}"
             try:
                 settings = RunnerSettings.from_params(private, where=where)
+                controllers = None
+                if node.params_files and settings.controller_manager:
+                    manager = expand(settings.controller_manager, node.namespace)
+                    controllers = read_setup(node.params_files, manager)
+                    controllers.set_frequency(settings, "frequency" in private, where)
             except LaunchError:
                 raise
             except Exception as exc:  # ConfigurationError: add the file and line
@@ -110,7 +119,8 @@ def plan(description: LaunchDescription) -> Deployment:
                 ) from None
             warnings.extend(f"{node.location}: {n}" for n in settings.notes)
             runners.append(
-                RunnerDeployment(node.full_name, settings, node.location, env=dict(node.env))
+                RunnerDeployment(node.full_name, settings, node.location, env=dict(node.env),
+                                 controllers=controllers)
             )
         elif is_launcher(node):
             launchers.append(node)

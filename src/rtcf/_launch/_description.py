@@ -36,6 +36,9 @@ class NodeDescription:
     remaps: list[tuple[str, str]] = field(default_factory=list)
     env: dict[str, str] = field(default_factory=dict)
     output: str | None = None
+    # the <param from=...> files given to it, in order (a runner reads its controller
+    # manager's section from them: _controller_setup)
+    params_files: list[str] = field(default_factory=list)
 
     @property
     def full_name(self) -> str:

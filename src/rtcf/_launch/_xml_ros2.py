@@ -11,12 +11,12 @@ dialects share are in :mod:`._xml`.
 
 from __future__ import annotations
 
-import re
 from typing import Any
 
 import yaml
 
 from .._core._errors import LaunchError
+from ._controller_setup import params_key_matches
 from ._description import NodeDescription
 from ._xml_reading import Config, Element, Handler, Reader, Scope
 
@@ -37,20 +37,6 @@ def infer_ros2(value: str) -> Any:
         if isinstance(loaded[0], (bool, int, float, str)):  # value="[1.0, 2.0]": an array
             return loaded
     return value
-
-
-def _params_file_key_matches(key: str, node: NodeDescription) -> bool:
-    full = node.full_name
-    if key in (node.name, full, full.lstrip("/")):
-        return True
-    if "*" not in key:
-        return False
-    parts = key.strip("/").split("/")
-    regex = "".join(
-        "(?:/[^/]+)*" if part == "**" else "/" + re.escape(part).replace(r"\*", "[^/]*")
-        for part in parts
-    )
-    return re.fullmatch(regex, full) is not None
 
 
 class Ros2Tags:
@@ -92,8 +78,9 @@ class Ros2Tags:
                 "a ROS 2 parameters file must map node names to {ros__parameters: {...}}",
                 file=path,
             )
+        node.params_files.append(path)
         for key, entry in data.items():
-            if not _params_file_key_matches(str(key), node):
+            if not params_key_matches(str(key), node.full_name):
                 continue
             if not isinstance(entry, dict) or not isinstance(entry.get("ros__parameters"), dict):
                 raise LaunchError(f"entry {key!r} has no 'ros__parameters' mapping", file=path)

@@ -31,6 +31,7 @@ from .._core._errors import RtcfError
 from .._core._lane_names import MAIN_LANE
 from .._core._names import expand, namespace_of
 from .._runtime._supervisor import WorkerRunner
+from ._controller_loading import ControllerLoading
 
 NOTHING_TO_DO = (
     "After checking the controllers, no controllers need to be activated or deactivated.")
@@ -68,8 +69,11 @@ class ControllerManager:
             node.create_service(ListControllers, f"{full}/list_controllers", self._list),
             node.create_service(SwitchController, f"{full}/switch_controller", self._switch),
         ]
+        # load, configure, unload, list types: what a spawner needs besides these two
+        self._loading = ControllerLoading(node, runner, full)
 
     def close(self) -> None:
+        self._loading.close()
         for service in self._services:
             self._node.destroy_service(service)
         self._services.clear()

@@ -35,7 +35,7 @@ import signal
 import sys
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from types import FrameType
 from typing import Any
 
@@ -44,9 +44,11 @@ from .._core._executor import ABORT, STOP
 from .._core._faults import FailurePolicy
 from .._core._lane_names import lane_from_params
 from .._core._lifecycle import STATE_IDS, TransitionOutcome
+from .._core._names import expand
 from .._core._rates import Rate
 from .._core._runner import ComponentSpec
 from .._core._settings import RunnerSettings
+from .._launch._controller_setup import read_setup
 from .._runtime._request_fields import RequestRefused, check_request
 from .._runtime._requests import Request, RequestQueue, serve_request, stop_on_signals
 from .._runtime._usage import help_printed, launcher_usage, runner_usage
@@ -83,10 +85,13 @@ def _params(node: Any) -> dict[str, Any]:
     return {name: p.value for name, p in node._parameters.items()}
 
 
-def _ros_remaps(argv: list[str], node: str = "") -> list[tuple[str, str]]:
-    """The ``-r from:=to`` rules of --ros-args, without the special __node/__ns ones, and
-    the ``-r NODE:from:=to`` ones whose NODE is ``node`` (the node's name)."""
-    out: list[tuple[str, str]] = []
+# the --ros-args options that take a value (rcl's arguments.h)
+_VALUED = ("-r", "--remap", "-p", "--param", "--params-file", "--log-level", "-e",
+           "--enclave", "--log-config-file")
+
+
+def _ros_args(argv: list[str]) -> Iterator[tuple[str, str]]:
+    """``(option, value)`` of each valued option inside --ros-args, in order."""
     inside = False
     it = iter(argv)
     for arg in it:
@@ -94,8 +99,21 @@ def _ros_remaps(argv: list[str], node: str = "") -> list[tuple[str, str]]:
             inside = True
         elif arg == "--":
             inside = False
-        elif inside and arg in ("-r", "--remap"):
-            rule = next(it, "")
+        elif inside and arg in _VALUED:
+            yield arg, next(it, "")
+
+
+def params_files(argv: list[str]) -> list[str]:
+    """The ``--params-file PATH`` of --ros-args (<param from=...> in a launch file)."""
+    return [path for option, path in _ros_args(argv) if option == "--params-file" and path]
+
+
+def _ros_remaps(argv: list[str], node: str = "") -> list[tuple[str, str]]:
+    """The ``-r from:=to`` rules of --ros-args, without the special __node/__ns ones, and
+    the ``-r NODE:from:=to`` ones whose NODE is ``node`` (the node's name)."""
+    out: list[tuple[str, str]] = []
+    for option, rule in _ros_args(argv):
+        if option in ("-r", "--remap"):
             src, _, dst = rule.partition(":=")
             who, colon, rest = src.partition(":")
             if colon and who == node and "//" not in rest:  # a rule for this node only
@@ -138,11 +156,19 @@ def runner_main(argv: list[str] | None = None) -> int:
         settings = RunnerSettings.from_params(
             {k: v for k, v in _params(node).items()}, where=f"rt_runner {name}"
         )
+        # --params-file controllers.yaml (<param from=...>): its controller manager section
+        controllers = None
+        files = params_files(argv)
+        if files and settings.controller_manager:
+            manager = expand(settings.controller_manager, node.get_namespace())
+            controllers = read_setup(files, manager)
+            controllers.set_frequency(settings, "frequency" in _params(node), f"rt_runner {name}")
     except RtcfError as exc:
         _say("rt_runner", f"error: {exc}")
         return 1
     bridge = Ros2Bridge(node=node)
     runner = WorkerRunner(settings, name=name, bridge=bridge)
+    runner.controller_setup = controllers
     requests = RequestQueue(runner)
     submit = requests.submit
     launchers: dict[str, str] = {}  # component -> launcher node that asked for it
@@ -336,6 +362,7 @@ def _spec(values: dict[str, Any]) -> tuple[ComponentSpec, str]:
         is_first=bool(values.get("is_first", False)),
         topics_ignore_for_graph=str(values.get("topics_ignore_for_graph") or ""),
         log_level=int(values["log_level"]) if values.get("log_level") else None,
+        autostart=bool(values.get("autostart", True)),
     )
     spec.policy = FailurePolicy.from_params(params, spec.full_name)  # on_error, fallback
     spec.rate = Rate.from_params(params, spec.full_name)  # rate, every, phase, cost_us

@@ -57,6 +57,7 @@ class RequestQueue:
         self._queue: queue.Queue[Request] = queue.Queue()
         self._lock = threading.Lock()
         runner.wake_idle = self.poke
+        runner.requests = self
 
     def submit(self, kind: str, payload: Any, timeout: float = 30.0) -> Request:
         """Queue a request and wait for the main thread to serve it (any thread)."""

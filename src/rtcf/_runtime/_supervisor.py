@@ -103,6 +103,10 @@ class WorkerRunner:
         )
         # wakes a main thread that waits for requests while no loop runs (RequestQueue)
         self.wake_idle: Callable[[], None] | None = None
+        # an rt_runner's RequestQueue (loads while the loop runs; rtcf launch: none), and
+        # its ros2_control YAML's section (_launch._controller_setup): load_controller's
+        self.requests: Any = None
+        self.controller_setup: Any = None
         self._owner = threading.get_ident()  # the thread of the control channel (start)
         # lanes: this worker's lane; the main lane's runner starts a worker per other
         # lane, routes each component's verbs to its lane, and runs them together
