@@ -166,6 +166,25 @@ def test_a_switch_lands_in_one_iteration_deactivations_first(tmp_path: Path) -> 
     assert first_b > 20 and table[first_b][0] == at
 
 
+def test_a_switch_across_lanes_gives_each_worker_its_share() -> None:
+    mod = "rtcf_lifecycle_components"
+    with WorkerRunner(RunnerSettings(frequency=FREQUENCY), simulated=True) as runner:
+        runner.load(ComponentSpec("ramp", module=mod, class_name="Ramp"))
+        runner.load(ComponentSpec("a", module=mod, class_name="Follower",
+                                  remaps=[("y", "y_a")]))
+        runner.load(ComponentSpec("b", module=mod, class_name="Follower",
+                                  remaps=[("y", "y_b")], lane="side"))
+        runner.run(3)
+        assert runner._owner_of("/b") is not runner  # a worker process of its own
+        outcomes = runner.change_states([("/b", "deactivate"), ("/a", "deactivate"),
+                                         ("/b", "activate")])
+        assert [(o.ok, o.label, o.end_label) for o in outcomes] == [
+            (True, "deactivate", "inactive"), (True, "deactivate", "inactive"),
+            (True, "activate", "active")]
+        assert [runner.lifecycle_state(n) for n in ("/a", "/b")] == ["inactive", "active"]
+        assert runner.shutdown() == []
+
+
 def test_an_error_in_a_hook_crosses_back_with_its_reason() -> None:
     with WorkerRunner(RunnerSettings(frequency=FREQUENCY), simulated=True) as runner:
         load_pair(runner, fail_stop=True)
