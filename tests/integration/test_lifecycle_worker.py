@@ -117,6 +117,75 @@ def test_deactivate_and_activate_while_the_loop_runs(tmp_path: Path) -> None:
     assert rtcf_shm_names() == []
 
 
+def test_a_switch_lands_in_one_iteration_deactivations_first(tmp_path: Path) -> None:
+    """``change_states`` (a controller manager's switch): the worker reads every
+    transition of the batch at the start of one iteration, so the output that one
+    follower stops writing the other writes from the very same iteration on."""
+    sink = Sink()
+    trace = tmp_path / "trace.csv"
+    outcomes: list[TransitionOutcome] = []
+    mod = "rtcf_lifecycle_components"
+    with WorkerRunner(RunnerSettings(frequency=FREQUENCY), simulated=True,
+                      log_sink=sink) as runner:
+        runner.load(ComponentSpec("ramp", module=mod, class_name="Ramp"))
+        for name in ("a", "b"):
+            runner.load(ComponentSpec(name, module=mod, class_name="Follower",
+                                      remaps=[("y", f"y_{name}")]))
+        runner.run(2)
+        assert runner.change_state("/b", "deactivate").ok  # between runs: at once
+
+        def operate() -> None:
+            try:
+                wait_until(lambda: runner.loop_running and runner.live_status().iterations > 20)
+                outcomes.extend(runner.change_states([("/a", "deactivate"), ("/b", "activate")]))
+                wait_until(lambda: runner.live_status().iterations > 60)
+            finally:
+                runner.request_stop()
+
+        t = threading.Thread(target=operate)
+        t.start()
+        runner.run(None, trace=str(trace))
+        t.join()
+        assert [runner.lifecycle_state(n) for n in ("/a", "/b")] == ["inactive", "active"]
+        assert runner.shutdown() == []
+    assert [(o.ok, o.label, o.end_label) for o in outcomes] == [
+        (True, "deactivate", "inactive"), (True, "activate", "active"),
+    ]
+    # the deactivation's hook first, then the activation's, in the same iteration (b's
+    # stop before the run, and its stop at the shutdown, around them)
+    hooks = [(r[1], r[2]) for r in sink.records if " at iteration " in r[2]]
+    at = int(hooks[-3][1].split()[-1])
+    assert hooks[-3:-1] == [("/a", f"stop at iteration {at}"), ("/b", f"start at iteration {at}")]
+    with trace.open() as f:
+        table = [(int(r["iteration"]), float(r["/x"]), float(r["/y_a"]), float(r["/y_b"]))
+                 for r in csv.DictReader(f)]
+    # a follows up to the switch, b from it on: no iteration with neither, nor both
+    writer = ["a" if ya == x + 1000.0 else "b" if yb == x + 1000.0 else "-"
+              for _, x, ya, yb in table]
+    first_b = writer.index("b")
+    assert writer == ["a"] * first_b + ["b"] * (len(table) - first_b)
+    assert first_b > 20 and table[first_b][0] == at
+
+
+def test_a_switch_across_lanes_gives_each_worker_its_share() -> None:
+    mod = "rtcf_lifecycle_components"
+    with WorkerRunner(RunnerSettings(frequency=FREQUENCY), simulated=True) as runner:
+        runner.load(ComponentSpec("ramp", module=mod, class_name="Ramp"))
+        runner.load(ComponentSpec("a", module=mod, class_name="Follower",
+                                  remaps=[("y", "y_a")]))
+        runner.load(ComponentSpec("b", module=mod, class_name="Follower",
+                                  remaps=[("y", "y_b")], lane="side"))
+        runner.run(3)
+        assert runner._owner_of("/b") is not runner  # a worker process of its own
+        outcomes = runner.change_states([("/b", "deactivate"), ("/a", "deactivate"),
+                                         ("/b", "activate")])
+        assert [(o.ok, o.label, o.end_label) for o in outcomes] == [
+            (True, "deactivate", "inactive"), (True, "deactivate", "inactive"),
+            (True, "activate", "active")]
+        assert [runner.lifecycle_state(n) for n in ("/a", "/b")] == ["inactive", "active"]
+        assert runner.shutdown() == []
+
+
 def test_an_error_in_a_hook_crosses_back_with_its_reason() -> None:
     with WorkerRunner(RunnerSettings(frequency=FREQUENCY), simulated=True) as runner:
         load_pair(runner, fail_stop=True)

@@ -335,6 +335,22 @@ def test_push_words_commits_four_words_and_counts_a_full_ring() -> None:
     ring.close()
 
 
+def test_push_all_commits_every_record_at_once_or_none() -> None:
+    ring = _ring(4)
+    consumer = Ring.open(ring._ctl.obj)
+    assert ring.push(_rec(0))
+    assert not ring.push_all([_rec(1), _rec(2), _rec(3), _rec(4)])  # 3 free: none goes
+    assert ring.dropped == 1 and len(consumer) == 1
+    assert ring.push_all([_rec(1), _rec(2), _rec(3)])
+    assert [consumer.pop() for _ in range(5)] == [_rec(i) for i in range(4)] + [None]
+    assert ring.push_all([_rec(5), _rec(6)])  # across the wrap
+    assert [consumer.pop() for _ in range(2)] == [_rec(5), _rec(6)]
+    with pytest.raises(ValueError, match="5 records do not fit"):
+        ring.push_all([_rec(i) for i in range(5)])
+    consumer.close()
+    ring.close()
+
+
 # -- Memory fences (weakly ordered CPUs) ----------------------------------------
 
 
@@ -383,6 +399,23 @@ def test_a_producer_fences_between_the_record_and_the_head(
     # one release fence, with the record written and the head not yet moved
     assert spy.seen == [("rel", 0, 7)]
     assert ctl[_R_HEAD] == 1
+    words.release()
+    ctl.release()
+    ring.close()
+
+
+def test_push_all_fences_once_after_the_last_record_before_the_head(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    from rtcf._core._rings import _R_HEAD
+
+    buf = bytearray(Ring.nbytes(4, 8))
+    ring = Ring.create(buf, 4, 8)
+    ctl = memoryview(buf).cast("q")
+    words = ring.data.cast("q")
+    spy = _FenceSpy(monkeypatch, lambda: (ctl[_R_HEAD], words.tolist()[:3]))
+    assert ring.push_all([_rec(5), _rec(6), _rec(7)])
+    assert spy.seen == [("rel", 0, [5, 6, 7])] and ctl[_R_HEAD] == 3
     words.release()
     ctl.release()
     ring.close()

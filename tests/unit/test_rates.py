@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from pathlib import Path
 from typing import Any
 
 import pytest
@@ -11,7 +12,7 @@ from rtcf import ComponentSpec, FlowStatus
 from rtcf._core._executor import compile_plans, hyperperiod
 from rtcf._core._rates import Rate, spread
 from rtcf._core._timing import FIXED_COLUMNS as F
-from rtcf.testing import run_components
+from rtcf.testing import run_components, run_launch
 
 
 class Counter(rtcf.Component):
@@ -145,6 +146,46 @@ def test_rate_parameters_from_a_launcher() -> None:
         Rate.from_params({"rate": 100.0, "every": 2}, "/c")
     with pytest.raises(rtcf.ConfigurationError, match=r"every is 2\.5, which is not a whole"):
         Rate.from_params({"every": 2.5}, "/c")
+
+
+def test_a_controllers_update_rate_is_its_rate() -> None:
+    """ros2_control's per-controller ``update_rate``: its rate when no ``rate`` is given;
+    0 is the loop's; both given, they must agree."""
+    assert Rate.from_params({"update_rate": 100}, "/c") == Rate(100.0)
+    assert Rate.from_params({"update_rate": 0}, "/c") == Rate()
+    assert Rate.from_params({"rate": 100.0, "update_rate": 100}, "/c") == Rate(100.0)
+    with pytest.raises(rtcf.ConfigurationError) as info:
+        Rate.from_params({"rate": 100.0, "update_rate": 50}, "/arm/jtc")
+    assert info.value.message == (
+        "component '/arm/jtc': rate 100 Hz and update_rate 50 Hz differ; give one of them "
+        "(update_rate is ros2_control's name of rate)")
+    with pytest.raises(rtcf.ConfigurationError, match="update_rate -1 Hz must not be negative"):
+        Rate.from_params({"update_rate": -1}, "/c")
+    with pytest.raises(rtcf.ConfigurationError, match="give update_rate or every, not both"):
+        Rate.from_params({"update_rate": 100, "every": 2}, "/c")
+    with pytest.raises(rtcf.ConfigurationError) as info:
+        Rate.from_params({"update_rate": 300}, "/c").divider(1000.0, "/c")
+    assert info.value.message.startswith(
+        "component '/c': update_rate 300 Hz does not divide the runner's frequency 1000 Hz;")
+
+
+def test_update_rate_from_a_ros2_controllers_yaml_section(tmp_path: Path) -> None:
+    (tmp_path / "controllers.yaml").write_text(
+        "controller_manager:\n  ros__parameters:\n    update_rate: 1000\n"
+        "ramp:\n  ros__parameters:\n    update_rate: 250\n")
+    launch = tmp_path / "rates.launch.xml"
+    launch.write_text("""<launch>
+  <node pkg="rtcf" exec="rt_runner" name="rt_runner">
+    <param name="frequency" value="1000.0"/>
+  </node>
+  <node pkg="rtcf" exec="rt_launcher" name="ramp" args="rtcf_examples Ramp">
+    <param from="controllers.yaml"/>
+  </node>
+</launch>
+""")
+    trace = run_launch(str(launch), 9)
+    ran = trace.ran["/ramp"]
+    assert len(ran) == 3 and ran[2] - ran[1] == ran[1] - ran[0] == 4
 
 
 class Integrator(rtcf.Component):

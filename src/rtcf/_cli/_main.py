@@ -232,7 +232,7 @@ def cmd_launch(ns: argparse.Namespace) -> int:
         on_started=lambda realtime: _say_realtime(realtime, ns.sim),
         bridge=bridge,
     )
-    runner.say_lanes = False  # its lanes line below says where each lane runs
+    runner.lanes.say = False  # its lanes line below says where each lane runs
     runner.controller_setup = target.controllers  # list_controller_types, load refusals
     status = 0
     previous = _install_stop_handlers(runner)
@@ -270,7 +270,7 @@ def cmd_launch(ns: argparse.Namespace) -> int:
         )
         _say("order: " + " -> ".join(info["order"]))
         if len(info.get("lanes", [])) > 1:
-            where = runner.lane_placement
+            where = runner.lanes.placement
             _say(
                 "lanes: "
                 + "; ".join(

@@ -1,7 +1,8 @@
 """Components at several rates in one loop: dividers, phases and the plan they make.
 
 A component runs every iteration unless its launcher says otherwise: ``rate`` (Hz,
-dividing the runner's frequency exactly) or ``every`` (a divider), and optionally
+dividing the runner's frequency exactly; ros2_control's ``update_rate`` parameter of a
+controller says the same, 0 meaning the loop's) or ``every`` (a divider), and optionally
 ``phase`` (the iteration, modulo ``every``, it runs in). In an iteration where a slow
 component runs, it runs at its place in the data-flow order; in the others it is
 skipped and its outputs keep their last value (``OLD_DATA`` for readers; a port says
@@ -17,7 +18,7 @@ from __future__ import annotations
 
 import math
 from collections.abc import Mapping, Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Any
 
 from ._errors import ConfigurationError
@@ -31,6 +32,8 @@ class Rate:
     every: int = 0  # divider; 0: not given
     phase: int | None = None  # None: the runner chooses
     cost_us: float | None = None  # what one run costs, for spreading the load (None: 1)
+    # the parameter that gave ``rate`` (for errors): rate, or a controller's update_rate
+    source: str = field(default="rate", compare=False, repr=False)
 
     @property
     def cost(self) -> float:
@@ -62,9 +65,25 @@ class Rate:
         every = number("every", int)
         phase = number("phase", int)
         cost = number("cost_us", float)
+        source = "rate"
+        update_rate = number("update_rate", float)  # ros2_control's name; 0: the loop's
+        if update_rate is not None and update_rate < 0:
+            raise ConfigurationError(
+                f"component {component!r}: update_rate {update_rate:g} Hz must not be "
+                "negative (0: the loop's rate)"
+            )
+        if update_rate:
+            if rate is not None and rate != update_rate:
+                raise ConfigurationError(
+                    f"component {component!r}: rate {rate:g} Hz and update_rate "
+                    f"{update_rate:g} Hz differ; give one of them (update_rate is "
+                    "ros2_control's name of rate)"
+                )
+            if rate is None:
+                rate, source = update_rate, "update_rate"
         if rate is not None and every is not None:
             raise ConfigurationError(
-                f"component {component!r}: give rate or every, not both"
+                f"component {component!r}: give {source} or every, not both"
             )
         if rate is not None and not rate > 0:
             raise ConfigurationError(f"component {component!r}: rate {rate:g} Hz must be above 0")
@@ -74,7 +93,7 @@ class Rate:
             raise ConfigurationError(f"component {component!r}: phase must not be negative")
         if cost is not None and cost < 0:
             raise ConfigurationError(f"component {component!r}: cost_us must not be negative")
-        return cls(rate or 0.0, every or 0, phase, cost)
+        return cls(rate or 0.0, every or 0, phase, cost, source)
 
     def divider(self, frequency: float, component: str) -> tuple[int, int | None]:
         """``(every, phase)`` at the runner's ``frequency``; a clear error if ``rate``
@@ -90,7 +109,7 @@ class Rate:
                     f"{frequency / n:g} Hz (every:={n})" for n in sorted({below, above})
                 )
                 raise ConfigurationError(
-                    f"component {component!r}: rate {self.rate:g} Hz does not divide the "
+                    f"component {component!r}: {self.source} {self.rate:g} Hz does not divide the "
                     f"runner's frequency {frequency:g} Hz; the nearest rates that do are "
                     f"{nearest}"
                 )

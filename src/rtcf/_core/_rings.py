@@ -282,6 +282,33 @@ class Ring(Closing):
         ctl[_R_HEAD] = head + 1
         return True
 
+    def push_all(self, records: list[bytes]) -> bool:
+        """Commit ``records`` together, or none of them (False, and one drop, when they
+        do not all fit now): the consumer sees all of them at once, never a part. Not
+        for the real-time side (it builds nothing, but loops in Python)."""
+        n = len(records)
+        if n > self.capacity or any(len(r) > self.record_size for r in records):
+            raise ValueError(
+                f"{n} records do not fit the ring's {self.capacity} records of "
+                f"{self.record_size} bytes"
+            )
+        ctl = self._ctl
+        head = ctl[_R_HEAD]
+        if head + n - self._tail_seen > self.capacity:
+            tail = self._tail_seen = ctl[_R_TAIL]
+            if FENCED:
+                acquire_fence()
+            if head + n - tail > self.capacity:
+                ctl[_R_DROPPED] += 1
+                return False
+        for k, record in enumerate(records):
+            offset = ((head + k) & self._mask) * self.record_size
+            self.data[offset : offset + len(record)] = record
+        if FENCED:  # every record, then the one head that covers them
+            release_fence()
+        ctl[_R_HEAD] = head + n
+        return True
+
     def push_words(self, words: Any, values: Any, a: int, b: int, c: int, d: Any) -> bool:
         """Commit a record whose first four 8-byte words are ``a``, ``b``, ``c`` (into
         ``words``, ``data`` cast to int64) and ``d`` (into ``values``: ``words``, or

@@ -270,7 +270,7 @@ def runner_main(argv: list[str] | None = None) -> int:
         with lock:
             launchers[spec.full_name] = launcher
         _say(name, f"loaded {spec.full_name} ({spec.module}.{spec.class_name})"
-                   f"{runner.lane_said(spec.full_name)}")
+                   f"{runner.lanes.said(spec.full_name)}")
         return f"loaded {spec.full_name}"
 
     def unloaded(full: str) -> str:

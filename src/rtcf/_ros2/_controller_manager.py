@@ -11,12 +11,15 @@ those tools see and switch rtcf's controllers:
   its type (the class's ``ros2_control_type``, as rtcf_controllers give it, else
   ``module.Class``), its rate, and ``is_async`` when it runs in a lane on logical
   execution time;
-* a switch is the components' lifecycle transitions (``WorkerRunner.change_state``):
-  the deactivations first, then the activations, each applied by the loop between two
-  iterations while it runs on. The checks are the controller manager's (Jazzy): an
+* a switch is the components' lifecycle transitions (``WorkerRunner.change_states``):
+  the deactivations first, then the activations, all applied by the loop at the start
+  of one iteration (of each worker: components in other lanes switch at their own
+  worker's next iteration) while it runs on, as ros2_control applies a switch at one
+  point of its loop. The checks are the controller manager's (Jazzy): an
   unknown name, activating one that is not inactive, deactivating one that is not
   active. ``STRICT`` refuses the whole request on any of them, and a transition that
-  fails undoes those already made; ``BEST_EFFORT`` (also for 0, ``AUTO`` and
+  fails undoes those made (in one iteration again: the loop ran one or more with the
+  switch half made); ``BEST_EFFORT`` (also for 0, ``AUTO`` and
   ``FORCE_AUTO``, as ros2_control falls back) leaves the offending ones out and goes on.
 
 Both run in the bridge's executor thread, as the components' lifecycle services do;
@@ -166,22 +169,22 @@ class ControllerManager:
         self, to_deactivate: list[str], to_activate: list[str], strict: bool,
         timeout: float | None,
     ) -> tuple[bool, str]:
-        """Deactivations, then activations; STRICT: the first failure undoes the rest."""
-        done: list[tuple[str, str]] = []
-        failed: list[str] = []
+        """Deactivations, then activations, all at the start of one iteration of each
+        worker; STRICT: a failure undoes those made, again all in one iteration."""
         steps = [(n, "deactivate") for n in to_deactivate] + [(n, "activate") for n in to_activate]
-        for name, transition in steps:
-            outcome = self._runner.change_state(self._full(name), transition, timeout)
-            if outcome.ok:
-                done.append((name, transition))
-                continue
-            why = outcome.reason or outcome.result
-            failed.append(f"Could not {transition} controller '{name}': {why}")
-            if strict:
-                undo = {"activate": "deactivate", "deactivate": "activate"}
-                for back, made in reversed(done):
-                    self._runner.change_state(self._full(back), undo[made], timeout)
-                return False, failed[-1] + "; the switch was undone ('STRICT' switch)"
+        outcomes = self._runner.change_states(
+            [(self._full(name), transition) for name, transition in steps], timeout)
+        done = [step for step, outcome in zip(steps, outcomes, strict=True) if outcome.ok]
+        failed = [f"Could not {transition} controller '{name}': {o.reason or o.result}"
+                  for (name, transition), o in zip(steps, outcomes, strict=True) if not o.ok]
+        if failed and strict:
+            undo = {"activate": "deactivate", "deactivate": "activate"}
+            back = [(name, undo[made]) for name, made in reversed(done)]
+            undone = self._runner.change_states(
+                [(self._full(name), transition) for name, transition in back], timeout)
+            failed += [f"Could not {transition} controller '{name}' back: {o.reason or o.result}"
+                       for (name, transition), o in zip(back, undone, strict=True) if not o.ok]
+            return False, "\n".join(failed) + "; the switch was undone ('STRICT' switch)"
         if failed and not done:
             return False, "\n".join(failed)
         return True, "\n".join(failed)

@@ -293,7 +293,7 @@ def runner_main(argv: list[str] | None = None) -> int:
         if launcher:  # it called us, so it exists even if the graph lags behind
             presence.seen.add(launcher)
         _say(name, f"loaded {spec.full_name} ({spec.module}.{spec.class_name})"
-                   f"{runner.lane_said(spec.full_name)}")
+                   f"{runner.lanes.said(spec.full_name)}")
         return json.dumps(runner.components[spec.full_name])
 
     def unloaded(full: str) -> str:

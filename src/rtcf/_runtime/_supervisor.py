@@ -23,7 +23,7 @@ import dataclasses
 import subprocess
 import sys
 import threading
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any, Protocol
 
 from .._core._errors import RtcfError
@@ -45,7 +45,7 @@ from ._loaded import LoadedComponents
 from ._port_channels import MailboxFanOut, MappedPort
 from ._recording import RecordSink
 from ._runs import RunChannels, note
-from ._updates import WorkerUpdates
+from ._updates import WorkerUpdates, change_states
 from ._worker_process import WorkerProcess, keep_off_cpus
 
 
@@ -387,14 +387,22 @@ class WorkerRunner:
         periods) gives up with a refusal; the transition may still happen later (the
         listeners hear of it then).
         """
+        return self.change_states([(component, transition)], timeout)[0]
+
+    def change_states(
+        self, transitions: Sequence[tuple[str, int | str]], timeout: float | None = None
+    ) -> list[TransitionOutcome]:
+        """Several transitions at once (a controller manager's switch): each worker
+        applies its components' at the start of one iteration, in the order given; the
+        outcomes come in that order (as :meth:`change_state`'s)."""
         self.admission.refuse_if_locked("lifecycle transitions")
-        owner = self._owner_of(component)
-        if owner is not self:
-            return owner.change_state(component, transition, timeout)
-        full = str(self._loaded.find(component)["name"])
-        if timeout is None:
-            timeout = 10.0 + 3.0 / self.settings.frequency
-        return self._updates.change_state(full, transition, timeout, self._hand_over)
+        asked = []
+        for component, transition in transitions:
+            owner = self._owner_of(component)
+            full = str(owner._loaded.find(component)["name"])
+            asked.append((owner._updates, owner._hand_over, full, transition))
+        return change_states(asked, 10.0 + 3.0 / self.settings.frequency
+                             if timeout is None else timeout)
 
     def _hand_over(self) -> None:
         """A transition waits: when no loop reads the record, the main thread hands it
@@ -507,24 +515,11 @@ class WorkerRunner:
         self._process.release()
 
     # -- lanes ----------------------------------------------------------------------
-    def lane_said(self, component: str) -> str:
-        """Where a component runs, for a "loaded" line: "" in the main lane, else
-        " in lane 'x' (pid, CPU, priority)"."""
-        return self._lanes.said(component)
-
     @property
-    def lane_placement(self) -> dict[str, str]:
-        """Lane -> where it runs (pid, CPUs, priority)."""
-        return self._lanes.placement
-
-    @property
-    def say_lanes(self) -> bool:
-        """Whether starting a lane's worker is said at info level (else debug)."""
-        return self._lanes.say
-
-    @say_lanes.setter
-    def say_lanes(self, say: bool) -> None:
-        self._lanes.say = say
+    def lanes(self) -> LaneWorkers[WorkerRunner]:
+        """The other lanes' workers: where each runs (``placement``, ``said``), and
+        whether starting one is said at info level (``say``)."""
+        return self._lanes
 
     def _owner_of(self, component: str) -> WorkerRunner:
         return self._lanes.worker_of(component) or self

@@ -13,9 +13,11 @@ from __future__ import annotations
 
 import itertools
 import threading
-from collections.abc import Callable
+import time
+from collections.abc import Callable, Sequence
 from typing import Any
 
+from .._core._errors import RtcfError
 from .._core._lifecycle import (
     OUTCOME_RECORD_SIZE,
     OUTCOME_RING_RECORDS,
@@ -48,7 +50,8 @@ class WorkerUpdates:
         self.lock = loaded.lock
         # updates for the worker: the bridge thread sets, the main thread retries
         self._ring: Ring | None = None
-        self._backlog: dict[tuple[int, str, str], bytes] = {}
+        # (a batch of transitions is a tuple: the ring takes all of it at once, or none)
+        self._backlog: dict[tuple[int, str, str], bytes | tuple[bytes, ...]] = {}
         # lifecycle transitions: asked for by any thread, answered by the worker on the
         # outcome ring, which the main thread drains (pump)
         self._outcomes: Ring | None = None
@@ -89,7 +92,9 @@ class WorkerUpdates:
         if ring is None:
             return
         for key in list(self._backlog):
-            if not ring.push(self._backlog[key]):
+            record = self._backlog[key]
+            sent = ring.push(record) if isinstance(record, bytes) else ring.push_all(list(record))
+            if not sent:
                 return  # full: pump() tries again; the worker takes them between iterations
             del self._backlog[key]
 
@@ -121,27 +126,43 @@ class WorkerUpdates:
             self.answer(number, refused(UNKNOWN, f"component {component!r} was unloaded"))
 
     # -- lifecycle ----------------------------------------------------------------------
-    def change_state(
-        self, full: str, transition: int | str, timeout: float, hand_over: Callable[[], None]
-    ) -> TransitionOutcome:
-        """Ask for a transition and wait for its outcome; ``hand_over``: have a worker
-        whose loop does not run read it."""
-        pending = PendingTransition(full)
+    def send_transitions(
+        self, transitions: Sequence[tuple[str, int | str]]
+    ) -> list[tuple[int, PendingTransition]]:
+        """Send transitions as one batch: the worker reads them all at the start of the
+        same iteration (the ring commits them at once), and applies them in this order."""
+        if len(transitions) > UPDATE_RING_RECORDS:
+            raise RtcfError(
+                f"{len(transitions)} lifecycle transitions at once: a worker takes "
+                f"{UPDATE_RING_RECORDS} at most in one iteration; ask for fewer"
+            )
+        asked: list[tuple[int, PendingTransition]] = []
         with self.lock:
-            number = next(self._request_numbers)
-            self.pending[number] = pending
-            # a key of its own: unlike values, transitions are never merged
-            key = (LIFECYCLE, full, f"#{number}")
-            self._backlog[key] = encode_update(LIFECYCLE, full, str(transition), number)
+            records = []
+            for full, transition in transitions:
+                number = next(self._request_numbers)
+                pending = PendingTransition(full, transition)
+                self.pending[number] = pending
+                asked.append((number, pending))
+                records.append(encode_update(LIFECYCLE, full, str(transition), number))
+            # a key of its own: unlike values, transitions are never merged; no
+            # component's (an unload drops no part of a batch: the worker refuses it)
+            self._backlog[(LIFECYCLE, "", f"#{asked[0][0]}")] = tuple(records)
             self._send_backlog()
-        hand_over()
-        if not pending.done.wait(timeout):
+        return asked
+
+    def wait(
+        self, number: int, pending: PendingTransition, until: float, timeout: float
+    ) -> TransitionOutcome:
+        """The outcome of request ``number``, or a refusal once ``until`` (monotonic,
+        ``timeout`` after the request) passed."""
+        if not pending.done.wait(max(0.0, until - time.monotonic())):
             with self.lock:
                 self.pending.pop(number, None)
             return refused(
                 UNKNOWN,
-                f"component {full!r}: no answer to {transition!r} within {timeout:g} s (the "
-                "loop did not reach its next iteration); it may still happen",
+                f"component {pending.component!r}: no answer to {pending.transition!r} within "
+                f"{timeout:g} s (the loop did not reach its next iteration); it may still happen",
             )
         assert pending.outcome is not None
         return pending.outcome
@@ -186,10 +207,35 @@ class WorkerUpdates:
             self.answer(number, refused(UNKNOWN, "the runner is shutting down"))
 
 
+def change_states(
+    transitions: Sequence[tuple[WorkerUpdates, Callable[[], None], str, int | str]],
+    timeout: float,
+) -> list[TransitionOutcome]:
+    """Transitions of components in one or several workers (``(updates, hand_over,
+    component, transition)`` each), applied together: each worker gets its share as one
+    batch, which its loop applies at the start of its next iteration, in the order
+    given; then wait for every outcome (in the order given) for ``timeout`` at most."""
+    shares: dict[int, list[int]] = {}  # id(updates) -> the transitions' indices
+    for k, (updates, *_) in enumerate(transitions):
+        shares.setdefault(id(updates), []).append(k)
+    asked: dict[int, tuple[WorkerUpdates, int, PendingTransition]] = {}
+    for indices in shares.values():
+        updates = transitions[indices[0]][0]
+        sent = updates.send_transitions([transitions[k][2:] for k in indices])
+        for k, (number, pending) in zip(indices, sent, strict=True):
+            asked[k] = (updates, number, pending)
+    for indices in shares.values():
+        transitions[indices[0]][1]()  # hand over
+    until = time.monotonic() + timeout
+    return [updates.wait(number, pending, until, timeout)
+            for updates, number, pending in (asked[k] for k in range(len(transitions)))]
+
+
 class PendingTransition:
     """A transition a caller waits for."""
 
-    def __init__(self, component: str) -> None:
+    def __init__(self, component: str, transition: int | str = "") -> None:
         self.component = component
+        self.transition = transition
         self.done = threading.Event()
         self.outcome: TransitionOutcome | None = None

@@ -126,6 +126,7 @@ _LAUNCHER_PARAMETERS = [
      "iteration's values); also the flag -f"),
     ("lane", "main", "the lane (a worker process of its own) it runs in"),
     ("rate", "", "its rate in Hz, a divisor of the runner's frequency"),
+    ("update_rate", "0", "ros2_control's name of rate (0: the runner's frequency)"),
     ("every", "1", "run every this many iterations (instead of rate)"),
     ("phase", "", "the iteration in the period it runs in (0 .. every-1)"),
     ("cost_us", "", "its expected cost, for spreading phases"),

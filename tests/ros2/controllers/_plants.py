@@ -71,7 +71,18 @@ class VelocityJoints(Mass):
         self.velocity.write(self.v)
 
 
-class RefusesRestart(rtcf.Component):
+class SaysWhen(rtcf.Component):
+    """Logs the iteration each ``start`` and ``stop`` runs in: a switch seen from outside."""
+
+    def start(self) -> bool:
+        self.log.nonrt.info("start at iteration %d", self.iteration)
+        return True
+
+    def stop(self) -> None:
+        self.log.nonrt.info("stop at iteration %d", self.iteration)
+
+
+class RefusesRestart(SaysWhen):
     """Starts once; each later ``start`` fails (returns False): a controller whose
     activation a switch cannot make, for the switch's rollback."""
 
@@ -80,4 +91,4 @@ class RefusesRestart(rtcf.Component):
 
     def start(self) -> bool:
         self.starts += 1
-        return self.starts == 1
+        return super().start() and self.starts == 1

@@ -7,6 +7,7 @@ is refused."""
 
 from __future__ import annotations
 
+import re
 from pathlib import Path
 
 import pytest
@@ -46,7 +47,8 @@ def _states(node) -> dict[str, str]:
     return {name: row[0] for name, row in _list(node).items()}
 
 
-# the example, and a controller that cannot be activated again once deactivated
+# the example, a controller that cannot be activated again once deactivated, and one
+# that says when it starts and stops
 WITH_REFUSER = """<launch>
   <include file="{launch}">
     <arg name="frequency" value="200.0"/>
@@ -54,6 +56,8 @@ WITH_REFUSER = """<launch>
   </include>
   <node pkg="rtcf" exec="rt_launcher" name="refuser"
         args="tests.ros2.controllers._plants RefusesRestart"/>
+  <node pkg="rtcf" exec="rt_launcher" name="standby"
+        args="tests.ros2.controllers._plants SaysWhen"/>
 </launch>
 """
 
@@ -78,6 +82,8 @@ def test_list_controllers_and_switch_one_off_while_the_others_run(ros_node, tmp_
         listed = _list(ros_node)
         assert listed.pop("refuser") == (
             "active", "tests.ros2.controllers._plants.RefusesRestart", 200, False)
+        assert listed.pop("standby") == (
+            "active", "tests.ros2.controllers._plants.SaysWhen", 200, False)
         assert listed == {
             "arm/hardware": ("active", "tests.ros2.controllers._plants.PositionJoints", 200,
                              False),
@@ -142,8 +148,12 @@ def test_list_controllers_and_switch_one_off_while_the_others_run(ros_node, tmp_
         assert ok
         assert set(_states(ros_node).values()) == {"active"}
 
+        # a switch from one to the other lands in one iteration: the one stops and the
+        # other starts at the start of the same iteration, the stop first
+        assert _switch(ros_node, deactivate=["standby"]) == (True, "")
+        assert _switch(ros_node, deactivate=["refuser"], activate=["standby"]) == (True, "")
+
         # STRICT: a transition that fails undoes the switch (the PID comes back on)
-        assert _switch(ros_node, deactivate=["refuser"]) == (True, "")
         ok, message = _switch(ros_node, activate=["refuser"],
                               deactivate=["wheel_pid_controller"])
         assert (ok, message) == (False, "Could not activate controller 'refuser': start() "
@@ -153,3 +163,9 @@ def test_list_controllers_and_switch_one_off_while_the_others_run(ros_node, tmp_
     finally:
         _, err = stop(proc)
     assert "[/forward_position_controller]: lifecycle: deactivate: active -> inactive" in err
+    hooks = re.findall(r"\[/(refuser|standby)\]: (start|stop) at iteration (-?\d+)", err)
+    # each started before the loop's first iteration; standby stopped; then the switch;
+    # then refuser's failed start (no stop at the shutdown: it is inactive)
+    switch = [(who, hook) for who, hook, _ in hooks[2:5]]
+    assert switch == [("standby", "stop"), ("refuser", "stop"), ("standby", "start")]
+    assert hooks[3][2] == hooks[4][2], hooks  # the same iteration
