@@ -49,7 +49,7 @@ _rcl: Any = None
 
 
 def _library() -> Any:
-    """librcl, as rclpy loaded it (its soname), with the three functions typed."""
+    """librcl, as rclpy loaded it (by its soname), with the functions used here typed."""
     global _rcl
     if _rcl is None:
         rcl: Any = ctypes.CDLL("librcl.so")
