@@ -289,3 +289,103 @@ def test_a_refused_decision_leaves_the_request_to_be_rejected_at_stop() -> None:
     runner.shutdown()
     assert client.goals[1].states[-1][1] == S.ABORTED  # open at the stop
     assert client.goals[2].accepted is False  # its accept was refused: rejected at the stop
+
+
+class Steady(rtcf.Component):
+    """Accepts each goal, sends it feedback in 3 iterations, then succeeds it: all with
+    messages made in configure, so that what it allocates per call is the server's."""
+
+    def configure(self) -> None:
+        self.fib = self.add_action_server("~/fibonacci", Fibonacci)
+        self.feedback, self.result = Fibonacci.Feedback([1]), Fibonacci.Result([1])
+        self.left = 0
+
+    def update(self) -> None:
+        req = self.fib.request()
+        if req is not None:
+            self.fib.accept(req)
+            self.left = 3
+        for goal_id in self.fib.active:
+            if self.left:
+                self.left -= 1
+                self.fib.publish_feedback(goal_id, self.feedback)
+            else:
+                self.fib.succeed(goal_id, self.result)
+
+
+def _server_blocks(cycles: int) -> int:
+    """Live blocks that the action server's modules allocated during ``cycles`` goals
+    (accept, 3 feedback, result), with a tap that keeps every event written."""
+    import tracemalloc
+
+    runner = rtcf.Runner(rtcf.RunnerSettings(frequency=100.0), clock=rtcf.SimClock())
+    comp = runner.load(rtcf.ComponentSpec("Steady", Steady))
+    kept: list[Any] = []
+    comp.fib._events._tap = kept.append
+    requests = [ActionRequest(ActionRequest.GOAL, k + 1000, b"", Fibonacci.Goal(1))
+                for k in range(cycles)]  # made here: a bridge's feeder makes them
+    port = comp.fib._requests
+
+    def feed() -> None:
+        if requests and not port.has_new_data and not comp.fib.active:
+            port._slot.value = requests.pop()
+            port._slot.seq += 1
+
+    try:
+        runner.run(2, feeders=[feed])  # warm: the first goal's tuple, caches
+        tracemalloc.start()
+        runner.run(cycles * 5, feeders=[feed])
+        snapshot = tracemalloc.take_snapshot().filter_traces([
+            tracemalloc.Filter(True, "*/rtcf/_core/_action*.py")])
+        tracemalloc.stop()
+    finally:
+        runner.shutdown()
+    assert len(kept) >= cycles * 4  # accept, feedback x3, result: every one tapped
+    return len(snapshot.traces)
+
+
+def test_decisions_feedback_and_results_allocate_nothing_per_call() -> None:
+    # every tapped event is kept alive: one object per write would stay allocated
+    assert _server_blocks(10) == _server_blocks(40) <= 1  # at most `active`'s tuple
+
+
+def test_the_events_are_one_object_and_the_testing_trace_copies_them() -> None:
+    trace = run_components([FibServer], 6, actions={NAME: {1: Goal(Fibonacci.Goal(3), id=1)}})
+    server = trace.components["/FibServer"].fib
+    assert server._events._slot.value is server._event
+    goal = trace.actions[NAME].goals[1]
+    assert [fb.sequence for _, fb in goal.feedback] == [[0, 1, 1], [0, 1, 1, 2]]
+    assert goal.states[-1][1] == S.SUCCEEDED and goal.result == Fibonacci.Result([0, 1, 1, 2])
+
+
+def _fake_message(name: str) -> type:
+    return type(name, (), {
+        "get_fields_and_field_types": classmethod(lambda cls: {"x": "double"}),
+        "__module__": "actfake.msg",
+    })
+
+
+def test_a_serialized_of_another_class_is_refused_naming_the_action() -> None:
+    class Act:
+        Goal = _fake_message("Goal")
+        Feedback = _fake_message("Feedback")
+        Result = _fake_message("Result")
+
+    class Server(rtcf.Component):
+        def configure(self) -> None:
+            self.act = self.add_action_server("act", Act)
+            self.fb = rtcf.Serialized(Act.Feedback)
+            self.wrong = rtcf.Serialized(Act.Result)
+
+        def update(self) -> None:
+            req = self.act.request()
+            if req is not None:
+                self.act.accept(req)
+            for goal_id in self.act.active:
+                self.fb.x = 2.0
+                self.act.publish_feedback(goal_id, self.fb)
+                self.act.publish_feedback(goal_id, self.wrong)
+
+    with pytest.raises(rtcf.ComponentError, match=r"action '/act': publish_feedback: a "
+                       r"Serialized\(Result\) given where Act's Feedback is expected"):
+        run_components([Server], 3, actions={"/act": {0: Goal(Act.Goal(), id=1)}})

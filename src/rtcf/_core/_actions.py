@@ -9,6 +9,14 @@ machine allows (:mod:`._action_protocol`). A call the protocol forbids raises
 
 The real-time path: ``request()`` with nothing waiting is one compare; a decision
 moves a table entry and writes one event (the port's tap carries it to a bridge).
+Nothing is allocated per call: the table and the one :class:`ActionEvent` every
+decision, feedback and result is written as are made in ``configure`` and rewritten
+in place (a tap copies what it keeps at once, as a bridge's and ``rtcf.testing``'s
+do; an input reading the events port sees the latest event, as for any port), and
+``active`` is a tuple built when it is read after the open goals changed, not per
+read. Feedback and results may be :class:`rtcf.Serialized` of the action's
+Feedback and Result: laid out in ``configure`` and rewritten in the loop, they cross
+as their bytes with no message built.
 """
 
 from __future__ import annotations
@@ -34,6 +42,7 @@ from ._action_protocol import (
     GoalStatus,
     next_status,
 )
+from ._cdr import Serialized
 from ._errors import ComponentError
 from ._loop_state import LoopState
 from ._names import validate_name
@@ -89,9 +98,16 @@ class ActionServer:
         self._events = events
         self._state = state
         self._ids = [_FREE] * max_goals  # the open goals' ids...
-        self._status = [UNKNOWN] * max_goals  # ... and their states
-        self._active: tuple[int, ...] = ()
+        self._status: list[GoalStatus] = [UNKNOWN] * max_goals  # ... and their states
+        self._order = [_FREE] * max_goals  # the open goals' ids, oldest first...
+        self._open = 0  # ... in its first _open entries
+        self._active: tuple[int, ...] | None = ()  # None: to build at the next read
         self._pending: ActionRequest | None = None  # handed out, not yet decided
+        # every event is this one, rewritten: nothing is allocated per write
+        self._event = ActionEvent(RESPONSE, 0, UNKNOWN)
+        # a Serialized written as feedback or a result must be of these classes
+        self._feedback_class = getattr(action_type, "Feedback", None)
+        self._result_class = getattr(action_type, "Result", None)
 
     # -- requests and decisions ---------------------------------------------------
     def request(self) -> ActionRequest | None:
@@ -128,15 +144,18 @@ class ActionServer:
             )
         if self._index(goal_id) >= 0:
             raise self._error(f"accept(goal {goal_id}): goal {goal_id} is open already")
+        self._check_serialized(preempt, self._result_class, "accept(preempt=...)")
         self._pending = None  # decided (a refused call leaves it to the stop's reject)
         self._write(RESPONSE, goal_id, EXECUTING, None, FLAG_ACCEPTED)
         if preempt is not None:
-            for other in self._active:
-                self._end(other, ABORTED, preempt, "accept(preempt=...)")
+            while self._open:  # the oldest first, as they were opened
+                self._end(self._order[0], ABORTED, preempt, "accept(preempt=...)")
         i = self._index(_FREE)
         self._ids[i] = goal_id
         self._status[i] = EXECUTING
-        self._active = (*self._active, goal_id)  # decisions are rare: built then, not per read
+        self._order[self._open] = goal_id
+        self._open += 1
+        self._active = None
 
     def reject(self, req: ActionRequest) -> None:
         """Refuse a goal: it never runs."""
@@ -164,19 +183,25 @@ class ActionServer:
     # -- running goals ----------------------------------------------------------------
     @property
     def active(self) -> tuple[int, ...]:
-        """The open goals' ids (EXECUTING or CANCELING), oldest first."""
-        return self._active
+        """The open goals' ids (EXECUTING or CANCELING), oldest first: a tuple, so
+        goals may end while it is iterated (built at the first read after a change)."""
+        active = self._active
+        if active is None:
+            active = self._active = tuple(self._order[: self._open])
+        return active
 
     def status(self, goal_id: int) -> GoalStatus:
         """An open goal's state (UNKNOWN once it ended, or if it never was)."""
         i = self._index(goal_id)
-        return GoalStatus(self._status[i]) if i >= 0 else GoalStatus.UNKNOWN
+        return self._status[i] if i >= 0 else UNKNOWN
 
     def publish_feedback(self, goal_id: int, feedback: Any) -> None:
-        """Send ``feedback`` (the action's Feedback message) about an open goal."""
+        """Send ``feedback`` (the action's Feedback message, or an
+        :class:`rtcf.Serialized` of it) about an open goal."""
         i = self._index(goal_id)
         if i < 0:
             raise self._error(f"publish_feedback(goal {goal_id}): goal {goal_id} is not open")
+        self._check_serialized(feedback, self._feedback_class, "publish_feedback")
         self._write(FEEDBACK, goal_id, self._status[i], feedback, 0)
 
     def succeed(self, goal_id: int, result: Any = None) -> None:
@@ -195,7 +220,7 @@ class ActionServer:
     def _abort_open(self) -> None:
         """After ``stop``: a request left undecided (or not taken) is rejected, open
         goals end ABORTED."""
-        undecided = [self._pending]
+        undecided = [self._pending]  # stop: not the loop's path, lists may be made
         self._pending = None
         if self._requests.has_new_data:  # handed over, not taken: not left for later
             undecided.append(self._requests.read())
@@ -203,8 +228,8 @@ class ActionServer:
             if req is not None:
                 flags = FLAG_CANCEL if req.kind == CANCEL else 0
                 self._write(RESPONSE, req.goal_id, UNKNOWN, None, flags)
-        for goal_id in self._active:
-            self._end(goal_id, ABORTED, None, "stop")
+        while self._open:
+            self._end(self._order[0], ABORTED, None, "stop")
 
     def _decide(self, req: ActionRequest, kind: int, verb: str) -> None:
         """Whether ``req`` may be decided now with ``verb``; the caller clears it once
@@ -225,9 +250,18 @@ class ActionServer:
 
     def _end(self, goal_id: int, status: GoalStatus, result: Any, verb: str) -> None:
         i = self._move(goal_id, status, verb)
+        self._check_serialized(result, self._result_class, verb)
         self._ids[i] = _FREE
         self._status[i] = UNKNOWN
-        self._active = tuple(g for g in self._active if g != goal_id)
+        order = self._order
+        n = self._open - 1
+        k = order.index(goal_id, 0, self._open)
+        while k < n:  # close the gap, in place
+            order[k] = order[k + 1]
+            k += 1
+        order[n] = _FREE
+        self._open = n
+        self._active = None
         self._write(RESULT, goal_id, status, result, 0)
 
     def _move(self, goal_id: int, status: GoalStatus, verb: str) -> int:
@@ -249,7 +283,21 @@ class ActionServer:
         return -1
 
     def _write(self, kind: int, goal_id: int, status: int, message: Any, flags: int) -> None:
-        self._events.write(ActionEvent(kind, goal_id, status, message, flags))
+        event = self._event
+        event.kind = kind
+        event.goal_id = goal_id
+        event.status = status
+        event.message = message
+        event.flags = flags
+        self._events.write(event)
+
+    def _check_serialized(self, message: Any, cls: Any, verb: str) -> None:
+        if type(message) is Serialized and message.message_class is not cls:
+            raise self._error(
+                f"{verb}: a Serialized({message.message_class.__name__}) given where "
+                f"{self.type.__name__}'s {'Feedback' if cls is self._feedback_class else 'Result'}"
+                " is expected; make it of that class"
+            )
 
     def _error(self, message: str) -> ComponentError:
         return ComponentError(
