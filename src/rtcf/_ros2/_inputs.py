@@ -13,6 +13,16 @@ runs at the publishing thread's SCHED_FIFO priority, on the supervisor's CPU.
 This uses the layer under rclpy's Node and Executor (``rclpy_implementation``: the
 ``Subscription``, ``WaitSet`` and ``GuardCondition`` that those are made of), as
 rclpy's own executors do.
+
+An input with a deadline is taken here too, with its subscription's QoS events
+(matched, liveliness, deadline missed, incompatible QoS: rclpy's
+``SubscriptionEventCallbacks``). Only the data comes this way: the events are rclpy's
+own event handlers (waitables) on the node, so rclpy's executor serves them, as it
+would a subscription's made by ``create_subscription``. Their callbacks log, publish on
+/rosout and ask the graph how many publishers there are: work that has no place on a
+SCHED_FIFO thread whose one job is to hand data over at once, and that may wait (on a
+slow console, say). Events are rare and the loop's own deadline decides, so they
+may wait for the executor.
 """
 
 from __future__ import annotations
@@ -37,6 +47,7 @@ class DirectInputs:
         self._lock = threading.Lock()
         # (subscription handle, message class, callback taking the raw bytes)
         self._subs: list[tuple[Any, type, Callable[[bytes], None]]] = []
+        self._handlers: list[Any] = []  # the subscriptions' event handlers, on the node
         self._generation = 0
         with self._context.handle:
             self._wake = _rclpy.GuardCondition(self._context.handle)
@@ -45,8 +56,13 @@ class DirectInputs:
         self._thread = threading.Thread(target=self._take, name="rtcf-ros2-take", daemon=True)
         self._thread.start()
 
-    def add(self, cls: type, topic: str, qos: Any, on_bytes: Callable[[bytes], None]) -> None:
-        """Subscribe ``topic`` (raw) on the node; each message's bytes go to ``on_bytes``."""
+    def add(
+        self, cls: type, topic: str, qos: Any, on_bytes: Callable[[bytes], None],
+        events: Any = None,
+    ) -> None:
+        """Subscribe ``topic`` (raw) on the node; each message's bytes go to ``on_bytes``,
+        and its QoS events to ``events`` (a ``SubscriptionEventCallbacks``), from rclpy's
+        executor."""
         from rclpy.type_support import check_is_valid_msg_type
 
         check_is_valid_msg_type(cls)
@@ -54,8 +70,14 @@ class DirectInputs:
             handle = self._rclpy.Subscription(
                 self._node.handle, cls, topic, qos.get_c_qos_profile()
             )
+        handlers = [] if events is None else events.create_event_handlers(
+            self._node.default_callback_group, handle, topic
+        )
+        for handler in handlers:
+            self._node.add_waitable(handler)  # wakes the executor to wait on it
         with self._lock:
             self._subs.append((handle, cls, on_bytes))
+            self._handlers += handlers
             self._generation += 1
         self._wake.trigger_guard_condition()
 
@@ -63,8 +85,12 @@ class DirectInputs:
         """Unsubscribe all (destroyed once the thread no longer waits on them)."""
         with self._lock:
             subs, self._subs = self._subs, []
+            handlers, self._handlers = self._handlers, []
             self._generation += 1
         self._wake.trigger_guard_condition()
+        for handler in handlers:  # before their subscription: they point into it
+            self._node.remove_waitable(handler)
+            handler.destroy()
         for handle, _, _ in subs:
             handle.destroy_when_not_in_use()
 
