@@ -29,8 +29,12 @@ input at once, is the floor of two rclpy hops.
 The default 500 Hz is the highest rate at which the five ROS-only timer nodes keep
 their rate on the 2-core machine the docs were measured on (see docs/performance.md).
 
+``--deadline S`` gives rtcf's mapped input (H1's ``in1``, the probe's topic) an input
+deadline of S seconds (``deadline/in1``, ``on_deadline`` continue): such an input takes
+the same way into the loop as one without (results beside, docs left alone).
+
     .venv-ros2/bin/python benchmarks/ros2_latency.py [--duration S] [--rounds N]
-        [--frequency HZ] [--rate HZ] [--quick]
+        [--frequency HZ] [--rate HZ] [--deadline S] [--quick]
 """
 
 from __future__ import annotations
@@ -201,14 +205,17 @@ def topic(prefix: str, name: str) -> str:
     return f"{prefix}/{OUTPUT_OF.get(name, name)}"
 
 
-def rtcf_launch(prefix: str, frequency: float) -> str:
-    """Fig. 1 of Stage components; only the probe's two topics map to ROS 2."""
+def rtcf_launch(prefix: str, frequency: float, deadline: float = 0.0) -> str:
+    """Fig. 1 of Stage components; only the probe's two topics map to ROS 2 (the input
+    with a ``deadline`` if one is given)."""
     nodes = []
     for name, forward, feedback in FIG1:
         remaps = [(f"in{i}", topic(prefix, t)) for i, t in enumerate(forward, 1)]
         remaps += [(f"fb{i}", topic(prefix, t)) for i, t in enumerate(feedback, 1)]
         remaps.append(("out", topic(prefix, name)))
         params = {"is_first": "True"} if name == FIG1[0][0] else {}
+        if name == FIG1[0][0] and deadline > 0:
+            params["deadline/in1"] = f"{deadline:g}"
         nodes.append(c.Node(name, "_latency_components", "Stage", remaps, params))
     whitelist = f"{prefix}/(in|out)"
     return c.launch_xml(
@@ -271,7 +278,7 @@ def run_round(
     with c.children() as started:
         if system == "rtcf":
             launch = work / "fig1_latency.launch"
-            launch.write_text(rtcf_launch(prefix, args.frequency))
+            launch.write_text(rtcf_launch(prefix, args.frequency, args.deadline))
             report = work / f"report-{tag}"
             system_procs = start_rtcf(launch, report, wrapper, started)
             supervisor, *worker = _descendants(system_procs[0].pid)
@@ -568,6 +575,11 @@ def main() -> int:
         "--rate", type=float, default=RATE, help=f"probe messages per second (default {RATE:g})"
     )
     p.add_argument(
+        "--deadline", type=float, default=0.0, metavar="S",
+        help="give rtcf's mapped input an input deadline of S seconds (results "
+        "ros2_latency-...-deadline, docs left alone)",
+    )
+    p.add_argument(
         "--hosts",
         type=int,
         choices=(1, 2),
@@ -645,6 +657,7 @@ def main() -> int:
         "cpu_dma_latency_zero": held,
         "rt_wrapper": " ".join(wrapper) or None,
         "ros2_bridge": os.environ.get("RTCF_ROS2_BRIDGE", "timed"),
+        "input_deadline_s": args.deadline or None,
         "conditions": conditions,
         "goals": goal,
         "systems": merged,
@@ -660,12 +673,15 @@ def main() -> int:
     }
     # the docs hold the default rates (each way of running in a section of its own);
     # other rates are written beside, docs left alone
-    default = args.frequency == FREQUENCY and args.rate == RATE
-    name = NAME if default else f"{NAME}-{args.frequency:g}hz-{args.rate:g}hz"
+    rates = args.frequency == FREQUENCY and args.rate == RATE
+    default = rates and not args.deadline
+    name = NAME if rates else f"{NAME}-{args.frequency:g}hz-{args.rate:g}hz"
     if args.hosts == 2:
         name += "-2hosts"
     if data["ros2_bridge"] != "timed":
         name += f"-{data['ros2_bridge']}-bridge"
+    if args.deadline:
+        name += "-deadline"
     data["hosts"] = args.hosts
     where = (
         "**Across two hosts**: every system in one network namespace, the probe in "

@@ -3,7 +3,9 @@
 /dl/cmd has a deadline of 0.5 s (on_deadline deactivate, fallback hold): its output
 /dl/u turns -1.0 (the fallback) while the publisher is silent, and the relay is back
 when values come again. Asserted from what the runner records (timing.json, its log),
-waiting on messages, never on the wall clock. One rtcf process for the module."""
+waiting on messages, never on the wall clock. The input is taken the direct way (the
+bridge's own thread, not rclpy's executor), and DDS's events about its publisher are
+logged all the same. One rtcf process for the module."""
 
 import json
 import signal
@@ -13,8 +15,10 @@ import sys
 import pytest
 from std_msgs.msg import Float64
 
+from rtcf._ros2._bridge import fetch_introspection
+
 from .._launches import launch_xml, runner_xml
-from .._proc import read_rest, wait_for
+from .._proc import read_rest, wait_for, wait_for_match
 from .conftest import FIXTURES, rtcf_env, start_rtcf
 from .test_topics import spin_until
 
@@ -62,6 +66,10 @@ def test_a_stalled_publisher_hands_over_to_the_fallback_and_back_then_a_killed_o
         wait_for(proc, "running until Ctrl-C", timeout=60)
         pub = _publisher()
         assert next_u(lambda v: v > 0), "the relay passes the publisher's values on"
+        # a deadline does not send the input the slow way: DirectInputs takes it
+        paths = fetch_introspection("/rt_runner")["ros2_inputs"]
+        assert paths == {"/dl/cmd": "direct"}
+        wait_for(proc, "ROS 2 input /dl/cmd: a publisher matched; 1 publishers now")
         pub.send_signal(signal.SIGSTOP)
         assert next_u(lambda v: v == -1.0), "the fallback holds while the publisher stalls"
         # the middleware's own view, beside the loop's: DDS reports the silence too
@@ -71,6 +79,8 @@ def test_a_stalled_publisher_hands_over_to_the_fallback_and_back_then_a_killed_o
         pub.kill()
         pub.wait()
         assert next_u(lambda v: v == -1.0), "the fallback holds after the publisher died"
+        # DDS reports the dead publisher's lease ran out: once for the stall, once now
+        wait_for_match(proc, r"(?s)(ROS 2 input /dl/cmd: liveliness lost \(0 alive\).*){2}")
     finally:
         if pub is not None and pub.poll() is None:
             pub.kill()

@@ -204,6 +204,7 @@ class Ros2Bridge:
         self._open = False  # whether a run's channels are there
         self._outputs: list[tuple[Ring, Any, Callable[[bytes], Any]]] = []
         self._subscriptions: list[Any] = []
+        self._input_paths: dict[str, str] = {}  # mapped input topic -> direct|executor
         self._publishers: list[Any] = []
         self._faces: dict[str, ComponentFace] = {}  # a node per component
         self._qos: Any = 10
@@ -248,7 +249,11 @@ class Ros2Bridge:
 
         def on_introspect(request: Any, response: Any) -> Any:
             response.success = True
-            response.message = json.dumps(runner.introspect())
+            # with the way each mapped input comes in: "direct" (DirectInputs' thread)
+            # or "executor" (rclpy's)
+            response.message = json.dumps(
+                {**runner.introspect(), "ros2_inputs": dict(self._input_paths)}
+            )
             return response
 
         if self._introspect_srv is None:
@@ -339,19 +344,18 @@ class Ros2Bridge:
                     decoder = _cdr_decoder(port.kind, cls) if cdr else None
                     raw = port.kind == "ros2" or decoder is not None
                     feed = self._feeder(port, channel, decoder)
-                    if port.deadline > 0:  # rclpy's executor: its QoS events too
-                        self._subscriptions.append(self.node.create_subscription(
-                            cls, port.topic, feed,
-                            input_qos(self._qos, port.deadline, self._qos_deadline),
-                            raw=raw, event_callbacks=self._events.callbacks(port.topic),
-                        ))
-                        continue
+                    qos = input_qos(self._qos, port.deadline, self._qos_deadline)
+                    # with a deadline: DDS's events about its publishers too (the
+                    # executor serves them, wherever the data goes)
+                    events = self._events.callbacks(port.topic) if port.deadline > 0 else None
                     if self._direct is not None and raw:  # taken by a thread of its own
-                        self._direct.add(cls, port.topic, self._qos, feed)
+                        self._direct.add(cls, port.topic, qos, feed, events)
+                        self._input_paths[port.topic] = "direct"
                         continue
-                    self._subscriptions.append(
-                        self.node.create_subscription(cls, port.topic, feed, self._qos, raw=raw)
-                    )
+                    self._input_paths[port.topic] = "executor"
+                    self._subscriptions.append(self.node.create_subscription(
+                        cls, port.topic, feed, qos, raw=raw, event_callbacks=events
+                    ))
 
     def _feeder(
         self, port: MappedPort, box: Mailbox | MailboxFanOut,
@@ -476,6 +480,7 @@ class Ros2Bridge:
             self._outputs.clear()
             self._publishers.clear()
             self._subscriptions.clear()
+            self._input_paths.clear()
 
     # -- the bridge thread -------------------------------------------------------
     def _spin(self) -> None:

@@ -77,8 +77,7 @@ class InputEvents:
                 self._count(topic, "liveliness_lost", event.not_alive_count_change)
                 self._say(WARNING, topic, f"liveliness lost ({event.alive_count} alive)")
             elif event.alive_count_change > 0:
-                with self._lock:  # a new silence may be said again
-                    self.counts[topic]["_said"] = 0
+                self._unsay(topic)  # a new silence may be said again
                 self._say(INFO, topic, f"liveliness back ({event.alive_count} alive)")
 
         def matched(event: Any) -> None:
@@ -87,8 +86,7 @@ class InputEvents:
             if event.current_count_change < 0:
                 self._say(WARNING, topic, "a publisher was lost")
             elif event.current_count_change > 0:
-                with self._lock:  # a new silence may be said again
-                    self.counts[topic]["_said"] = 0
+                self._unsay(topic)  # a new silence may be said again
                 self._say(INFO, topic, "a publisher matched")
 
         def incompatible(event: Any) -> None:
@@ -114,13 +112,21 @@ class InputEvents:
             }
 
     def _count(self, topic: str, what: str, change: int) -> bool:
-        """Count ``change`` more of ``what``; True if the first since messages came."""
+        """Count ``change`` more of ``what``; True if the first ``what`` since messages
+        came (each kind its own: a lost liveliness, which DDS reports at the same time
+        as a missed deadline and in either order, does not silence the deadline)."""
         with self._lock:
             counts = self.counts[topic]
             counts[what] += max(0, change)
-            first = not counts.get("_said", 0)
-            counts["_said"] = 1
+            first = not counts.get("_said_" + what, 0)
+            counts["_said_" + what] = 1
         return first
+
+    def _unsay(self, topic: str) -> None:
+        with self._lock:
+            counts = self.counts[topic]
+            for key in [k for k in counts if k.startswith("_said_")]:
+                counts[key] = 0
 
     def _say(self, level: int, topic: str, what: str) -> None:
         if self.log is None:
