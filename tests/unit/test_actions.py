@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -389,3 +390,28 @@ def test_a_serialized_of_another_class_is_refused_naming_the_action() -> None:
     with pytest.raises(rtcf.ComponentError, match=r"action '/act': publish_feedback: a "
                        r"Serialized\(Result\) given where Act's Feedback is expected"):
         run_components([Server], 3, actions={"/act": {0: Goal(Act.Goal(), id=1)}})
+
+
+def test_a_request_taken_after_its_deadline_is_dropped_and_counted() -> None:
+    """The bridge tells the client "rejected" at the request's deadline: a component
+    that takes it later (one that runs slower than the loop, or polls) must not run it."""
+    runner = rtcf.Runner(rtcf.RunnerSettings(frequency=100.0), clock=rtcf.SimClock())
+    comp = runner.load(rtcf.ComponentSpec("Steady", Steady))
+    now = time.monotonic_ns()
+    late = ActionRequest(ActionRequest.GOAL, 1, b"", Fibonacci.Goal(1), deadline_ns=now - 1)
+    timely = ActionRequest(ActionRequest.GOAL, 2, b"", Fibonacci.Goal(1), deadline_ns=now + 10**12)
+    requests = [timely, late]
+    port = comp.fib._requests
+
+    def feed() -> None:
+        if requests and not port.has_new_data:
+            port._slot.value = requests.pop()
+            port._slot.seq += 1
+
+    try:
+        runner.run(1, feeders=[feed])
+        assert comp.fib.active == () and comp.fib.expired == 1
+        runner.run(1, feeders=[feed])
+        assert comp.fib.active == (2,) and comp.fib.expired == 1
+    finally:
+        runner.shutdown()

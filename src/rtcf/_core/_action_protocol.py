@@ -71,7 +71,9 @@ class ActionRequest:
 
     ``kind`` is ``GOAL`` or ``CANCEL``; ``goal_id`` numbers the goal within the run
     (the cancel's: the goal it cancels); ``uuid`` is the client's 16-byte goal id;
-    ``goal`` the action's ``Goal`` message (None for a cancel).
+    ``goal`` the action's ``Goal`` message (None for a cancel); ``deadline_ns`` when
+    (``time.monotonic_ns()``) its client is told "rejected" if the component has not
+    answered (0: never).
     """
 
     GOAL: ClassVar[int] = GOAL
@@ -81,6 +83,7 @@ class ActionRequest:
     goal_id: int
     uuid: bytes = b""
     goal: Any = None
+    deadline_ns: int = 0
     iteration: int = field(default=-1, init=False)  # the iteration the server handed it out in
 
     def __repr__(self) -> str:

@@ -21,6 +21,7 @@ as their bytes with no message built.
 
 from __future__ import annotations
 
+import time
 from typing import Any
 
 from ._action_protocol import (
@@ -103,6 +104,7 @@ class ActionServer:
         self._open = 0  # ... in its first _open entries
         self._active: tuple[int, ...] | None = ()  # None: to build at the next read
         self._pending: ActionRequest | None = None  # handed out, not yet decided
+        self.expired = 0  # requests taken after their deadline: dropped, never handed out
         # every event is this one, rewritten: nothing is allocated per write
         self._event = ActionEvent(RESPONSE, 0, UNKNOWN)
         # a Serialized written as feedback or a result must be of these classes
@@ -112,12 +114,18 @@ class ActionServer:
     # -- requests and decisions ---------------------------------------------------
     def request(self) -> ActionRequest | None:
         """The next goal or cancel (at most one per iteration, in arrival order), or
-        None. Decide it in this iteration."""
+        None. Decide it in this iteration. One taken after its deadline (its client
+        has been told "rejected") is dropped and counted in ``expired``."""
         port = self._requests
         if not port.has_new_data:
             return None
         req = port.read()
         if req is None:
+            return None
+        if req.deadline_ns and time.monotonic_ns() > req.deadline_ns:
+            # handed over in time but taken late (a component that runs slower than the
+            # loop, or polls): its client has been told "rejected" by now
+            self.expired += 1
             return None
         if self._pending is not None:
             raise self._error(

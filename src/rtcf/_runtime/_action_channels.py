@@ -137,7 +137,7 @@ class RequestFeeder:
             begin = off + _REQUEST.size
             goal = self._decode(bytes(data[begin : begin + length]))
         ring.release(1)
-        req = ActionRequest(kind, goal_id, uuid, goal)
+        req = ActionRequest(kind, goal_id, uuid, goal, deadline)
         s = port._slot
         s.value = req
         s.seq += 1
