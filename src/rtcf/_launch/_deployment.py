@@ -17,13 +17,14 @@ from typing import Any
 from .._core._errors import ConfigurationError, LaunchError, Location
 from .._core._faults import FailurePolicy
 from .._core._lane_names import lane_from_params
-from .._core._names import expand, join, normalize_namespace
+from .._core._names import expand, join, namespace_of, normalize_namespace
 from .._core._params import ParameterStore
 from .._core._rates import Rate
 from .._core._runner import ComponentSpec
 from .._core._settings import RunnerSettings
 from ._controller_setup import ControllerSetup, read_setup
 from ._description import LaunchDescription, NodeDescription
+from ._spawner import controller_specs, is_spawner, parse
 
 PACKAGE = "rtcf"
 RUNNER = "rt_runner"
@@ -98,6 +99,7 @@ def plan(description: LaunchDescription) -> Deployment:
     warnings = list(description.warnings)
     runners: list[RunnerDeployment] = []
     launchers: list[NodeDescription] = []
+    spawners: list[NodeDescription] = []
     others: list[NodeDescription] = []
     for node in description.nodes:
         if is_runner(node):
@@ -124,14 +126,16 @@ def plan(description: LaunchDescription) -> Deployment:
             )
         elif is_launcher(node):
             launchers.append(node)
+        elif is_spawner(node):
+            spawners.append(node)
         else:
             others.append(node)
             warnings.append(
                 f"{node.location}: node {node.full_name!r} ({node.package}/{node.executable}) "
                 "is not an rtcf runner or launcher; rtcf does not start it"
             )
-    if launchers and not runners:
-        first = launchers[0].location
+    if (launchers or spawners) and not runners:
+        first = (launchers or spawners)[0].location
         raise LaunchError(
             "the file loads components but defines no runner; add "
             '<node pkg="rtcf" type="rt_runner" name="rt_runner"/> with its parameters',
@@ -143,7 +147,32 @@ def plan(description: LaunchDescription) -> Deployment:
         spec, runner_name = _component_spec(node, params)
         target = _pick_runner(node, runner_name, runners, by_name)
         target.components.append(spec)
+    for node in spawners:
+        _spawn(node, runners, warnings)
     return Deployment(description.source, runners, params, others, warnings)
+
+
+def _spawn(node: NodeDescription, runners: list[RunnerDeployment], warnings: list[str]) -> None:
+    """A ros2_control spawner's controllers, added to the runner of its controller manager."""
+    request = parse(node)
+    managers = {_manager_of(r): r for r in runners if r.settings.controller_manager}
+    target = managers.get(request.manager)
+    if target is None:
+        raise LaunchError(
+            f"spawner {node.full_name!r}: controller manager {request.manager} is no runner's "
+            f"(theirs: {', '.join(managers) or 'none'}); "
+            "set -c, or the runner's controller_manager",
+            file=node.location.file, line=node.location.line)
+    for option in request.ignored:
+        warnings.append(f"{node.location}: spawner {node.full_name!r}: {option} ignored: "
+                        "the runner loads and starts its controllers at once, unloads at exit")
+    target.components.extend(controller_specs(node, request, target.controllers))
+
+
+def _manager_of(runner: RunnerDeployment) -> str:
+    if runner.controllers is not None:
+        return runner.controllers.manager
+    return expand(runner.settings.controller_manager, namespace_of(runner.name))
 
 
 def _component_spec(node: NodeDescription, params: ParameterStore) -> tuple[ComponentSpec, str]:
