@@ -182,3 +182,22 @@ def test_ignored_options_are_warned_about_and_spawners_are_no_other_nodes(
     (warning,) = [w for w in deployment.warnings if "spawner" in w]
     assert "bringup.launch.xml:7: spawner '/spawner_arm_controller': --activate-as-group ignored" \
         in warning
+
+
+def test_ros2_control_node_given_the_yaml_is_the_runner_and_its_controller_manager(
+    tmp_path: Path,
+) -> None:
+    write(tmp_path, "controllers.yaml", CONTROLLERS)
+    path = write(tmp_path, "team.launch.xml", """<launch>
+  <node pkg="controller_manager" exec="ros2_control_node">
+    <param from="$(dirname)/controllers.yaml"/>
+    <remap from="~/robot_description" to="/robot_description"/>
+  </node>
+  <node pkg="controller_manager" exec="spawner" args="joint_state_broadcaster"/>
+</launch>""")
+    deployment = load_deployment([path])
+    target = deployment.runner
+    assert target.name == "/controller_manager" and target.settings.mode == "no_wait"
+    assert target.settings.frequency == 100.0  # update_rate
+    assert [s.full_name for s in target.components] == ["/joint_state_broadcaster"]
+    assert deployment.warnings == []  # its types and update_rate are no unknown settings

@@ -6,6 +6,12 @@ args="MODULE ClassName [-f|--is_first]">`` loads one component into a runner: th
 node's name, namespace and remaps become the component's, and its private
 parameters its parameters (``is_first``, ``topics_ignore_for_graph``, ``rt_package``,
 ``rt_type`` and ``runner`` are read by the launcher itself).
+
+ros2_control's nodes stand for the same: ``<node pkg="controller_manager"
+exec="ros2_control_node">`` is a runner that is its own controller manager (of its
+parameters, only the runner's settings are read; the rest is the YAML's controller
+manager section), and a ``spawner`` loads its controllers into the runner of its
+controller manager (:mod:`._spawner`).
 """
 
 from __future__ import annotations
@@ -29,6 +35,8 @@ from ._spawner import controller_specs, is_spawner, parse
 PACKAGE = "rtcf"
 RUNNER = "rt_runner"
 LAUNCHER = "rt_launcher"
+CONTROL_PACKAGE, CONTROL_NODE = "controller_manager", "ros2_control_node"
+RUNNER_SETTINGS = frozenset(RunnerSettings.__dataclass_fields__) - {"notes"}
 LAUNCHER_PARAMS = (
     "is_first",
     "is_sync",
@@ -88,6 +96,11 @@ def is_runner(node: NodeDescription) -> bool:
     return node.package == PACKAGE and node.executable == RUNNER
 
 
+def is_ros2_control_node(node: NodeDescription) -> bool:
+    """ros2_control's controller manager: a runner given its YAML, as rt_runner would be."""
+    return node.package == CONTROL_PACKAGE and node.executable == CONTROL_NODE
+
+
 def is_launcher(node: NodeDescription) -> bool:
     return node.package == PACKAGE and node.executable == LAUNCHER
 
@@ -102,28 +115,8 @@ def plan(description: LaunchDescription) -> Deployment:
     spawners: list[NodeDescription] = []
     others: list[NodeDescription] = []
     for node in description.nodes:
-        if is_runner(node):
-            private = params.get(node.full_name, {})
-            private = private if isinstance(private, dict) else {}
-            where = f"rt_runner {node.full_name!r}"
-            try:
-                settings = RunnerSettings.from_params(private, where=where)
-                controllers = None
-                if node.params_files and settings.controller_manager:
-                    manager = expand(settings.controller_manager, node.namespace)
-                    controllers = read_setup(node.params_files, manager)
-                    controllers.set_frequency(settings, "frequency" in private, where)
-            except LaunchError:
-                raise
-            except Exception as exc:  # ConfigurationError: add the file and line
-                raise LaunchError(
-                    str(exc), file=node.location.file, line=node.location.line
-                ) from None
-            warnings.extend(f"{node.location}: {n}" for n in settings.notes)
-            runners.append(
-                RunnerDeployment(node.full_name, settings, node.location, env=dict(node.env),
-                                 controllers=controllers)
-            )
+        if is_runner(node) or is_ros2_control_node(node):
+            runners.append(_runner(node, params, warnings))
         elif is_launcher(node):
             launchers.append(node)
         elif is_spawner(node):
@@ -150,6 +143,32 @@ def plan(description: LaunchDescription) -> Deployment:
     for node in spawners:
         _spawn(node, runners, warnings)
     return Deployment(description.source, runners, params, others, warnings)
+
+
+def _runner(node: NodeDescription, params: ParameterStore,
+            warnings: list[str]) -> RunnerDeployment:
+    private = params.get(node.full_name, {})
+    private = private if isinstance(private, dict) else {}
+    where = f"{node.executable} {node.full_name!r}"
+    if is_ros2_control_node(node):
+        # its parameters are the controller manager's (update_rate, the types): of those
+        # only the runner's own settings are read; it is the controller manager itself
+        private = {"mode": "no_wait", "controller_manager": node.name,
+                   **{k: v for k, v in private.items() if k in RUNNER_SETTINGS}}
+    try:
+        settings = RunnerSettings.from_params(private, where=where)
+        controllers = None
+        if node.params_files and settings.controller_manager:
+            manager = expand(settings.controller_manager, node.namespace)
+            controllers = read_setup(node.params_files, manager)
+            controllers.set_frequency(settings, "frequency" in private, where)
+    except LaunchError:
+        raise
+    except Exception as exc:  # ConfigurationError: add the file and line
+        raise LaunchError(str(exc), file=node.location.file, line=node.location.line) from None
+    warnings.extend(f"{node.location}: {n}" for n in settings.notes)
+    return RunnerDeployment(node.full_name, settings, node.location, env=dict(node.env),
+                            controllers=controllers)
 
 
 def _spawn(node: NodeDescription, runners: list[RunnerDeployment], warnings: list[str]) -> None:

@@ -57,9 +57,16 @@ def is_spawner(node: NodeDescription) -> bool:
     return node.package == PACKAGE and node.executable == SPAWNER
 
 
+def node_name(executable: str, args: str) -> str | None:
+    """The name ros2_control's node gives itself when the launch file gives none:
+    ``controller_manager`` (ros2_control_node), ``spawner_<first NAME>`` (spawner)."""
+    if executable == "ros2_control_node":
+        return "controller_manager"
+    return default_name(args) if executable == SPAWNER else None
+
+
 def default_name(args: str) -> str:
-    """A spawner node's name when the launch file gives none: ``spawner_<first NAME>``,
-    as the spawner names its node."""
+    """A spawner node's name when the launch file gives none: ``spawner_<first NAME>``."""
     try:
         words = shlex.split(args)
     except ValueError:
