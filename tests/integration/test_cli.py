@@ -15,9 +15,9 @@ from .test_worker import bomb
 
 pytestmark = pytest.mark.integration
 
-# those that need ROS 2 messages run in their suite: diffbot.launch (nav_msgs, tf2_msgs)
+# those that need ROS 2 messages run in their suite: the diffbot (nav_msgs, tf2_msgs)
 # in tests/ros2/controllers
-NEEDS_ROS = {"diffbot.launch"}
+NEEDS_ROS = {"diffbot.launch", "diffbot_bringup.launch.xml"}
 EXAMPLES = sorted(
     p for p in (SRC / "rtcf_examples" / "launch").iterdir() if p.name not in NEEDS_ROS
 )

@@ -6,6 +6,12 @@ args="MODULE ClassName [-f|--is_first]">`` loads one component into a runner: th
 node's name, namespace and remaps become the component's, and its private
 parameters its parameters (``is_first``, ``topics_ignore_for_graph``, ``rt_package``,
 ``rt_type`` and ``runner`` are read by the launcher itself).
+
+ros2_control's nodes stand for the same: ``<node pkg="controller_manager"
+exec="ros2_control_node">`` is a runner that is its own controller manager (of its
+parameters, only the runner's settings are read; the rest is the YAML's controller
+manager section), and a ``spawner`` loads its controllers into the runner of its
+controller manager (:mod:`._spawner`).
 """
 
 from __future__ import annotations
@@ -17,17 +23,20 @@ from typing import Any
 from .._core._errors import ConfigurationError, LaunchError, Location
 from .._core._faults import FailurePolicy
 from .._core._lane_names import lane_from_params
-from .._core._names import expand, join, normalize_namespace
+from .._core._names import expand, join, namespace_of, normalize_namespace
 from .._core._params import ParameterStore
 from .._core._rates import Rate
 from .._core._runner import ComponentSpec
 from .._core._settings import RunnerSettings
 from ._controller_setup import ControllerSetup, read_setup
 from ._description import LaunchDescription, NodeDescription
+from ._spawner import controller_specs, is_spawner, parse
 
 PACKAGE = "rtcf"
 RUNNER = "rt_runner"
 LAUNCHER = "rt_launcher"
+CONTROL_PACKAGE, CONTROL_NODE = "controller_manager", "ros2_control_node"
+RUNNER_SETTINGS = frozenset(RunnerSettings.__dataclass_fields__) - {"notes"}
 LAUNCHER_PARAMS = (
     "is_first",
     "is_sync",
@@ -87,6 +96,11 @@ def is_runner(node: NodeDescription) -> bool:
     return node.package == PACKAGE and node.executable == RUNNER
 
 
+def is_ros2_control_node(node: NodeDescription) -> bool:
+    """ros2_control's controller manager: a runner given its YAML, as rt_runner would be."""
+    return node.package == CONTROL_PACKAGE and node.executable == CONTROL_NODE
+
+
 def is_launcher(node: NodeDescription) -> bool:
     return node.package == PACKAGE and node.executable == LAUNCHER
 
@@ -98,40 +112,23 @@ def plan(description: LaunchDescription) -> Deployment:
     warnings = list(description.warnings)
     runners: list[RunnerDeployment] = []
     launchers: list[NodeDescription] = []
+    spawners: list[NodeDescription] = []
     others: list[NodeDescription] = []
     for node in description.nodes:
-        if is_runner(node):
-            private = params.get(node.full_name, {})
-            private = private if isinstance(private, dict) else {}
-            where = f"rt_runner {node.full_name!r}"
-            try:
-                settings = RunnerSettings.from_params(private, where=where)
-                controllers = None
-                if node.params_files and settings.controller_manager:
-                    manager = expand(settings.controller_manager, node.namespace)
-                    controllers = read_setup(node.params_files, manager)
-                    controllers.set_frequency(settings, "frequency" in private, where)
-            except LaunchError:
-                raise
-            except Exception as exc:  # ConfigurationError: add the file and line
-                raise LaunchError(
-                    str(exc), file=node.location.file, line=node.location.line
-                ) from None
-            warnings.extend(f"{node.location}: {n}" for n in settings.notes)
-            runners.append(
-                RunnerDeployment(node.full_name, settings, node.location, env=dict(node.env),
-                                 controllers=controllers)
-            )
+        if is_runner(node) or is_ros2_control_node(node):
+            runners.append(_runner(node, params, warnings))
         elif is_launcher(node):
             launchers.append(node)
+        elif is_spawner(node):
+            spawners.append(node)
         else:
             others.append(node)
             warnings.append(
                 f"{node.location}: node {node.full_name!r} ({node.package}/{node.executable}) "
                 "is not an rtcf runner or launcher; rtcf does not start it"
             )
-    if launchers and not runners:
-        first = launchers[0].location
+    if (launchers or spawners) and not runners:
+        first = (launchers or spawners)[0].location
         raise LaunchError(
             "the file loads components but defines no runner; add "
             '<node pkg="rtcf" type="rt_runner" name="rt_runner"/> with its parameters',
@@ -143,7 +140,58 @@ def plan(description: LaunchDescription) -> Deployment:
         spec, runner_name = _component_spec(node, params)
         target = _pick_runner(node, runner_name, runners, by_name)
         target.components.append(spec)
+    for node in spawners:
+        _spawn(node, runners, warnings)
     return Deployment(description.source, runners, params, others, warnings)
+
+
+def _runner(node: NodeDescription, params: ParameterStore,
+            warnings: list[str]) -> RunnerDeployment:
+    private = params.get(node.full_name, {})
+    private = private if isinstance(private, dict) else {}
+    where = f"{node.executable} {node.full_name!r}"
+    if is_ros2_control_node(node):
+        # its parameters are the controller manager's (update_rate, the types): of those
+        # only the runner's own settings are read; it is the controller manager itself
+        private = {"mode": "no_wait", "controller_manager": node.name,
+                   **{k: v for k, v in private.items() if k in RUNNER_SETTINGS}}
+    try:
+        settings = RunnerSettings.from_params(private, where=where)
+        controllers = None
+        if node.params_files and settings.controller_manager:
+            manager = expand(settings.controller_manager, node.namespace)
+            controllers = read_setup(node.params_files, manager)
+            controllers.set_frequency(settings, "frequency" in private, where)
+    except LaunchError:
+        raise
+    except Exception as exc:  # ConfigurationError: add the file and line
+        raise LaunchError(str(exc), file=node.location.file, line=node.location.line) from None
+    warnings.extend(f"{node.location}: {n}" for n in settings.notes)
+    return RunnerDeployment(node.full_name, settings, node.location, env=dict(node.env),
+                            controllers=controllers)
+
+
+def _spawn(node: NodeDescription, runners: list[RunnerDeployment], warnings: list[str]) -> None:
+    """A ros2_control spawner's controllers, added to the runner of its controller manager."""
+    request = parse(node)
+    managers = {_manager_of(r): r for r in runners if r.settings.controller_manager}
+    target = managers.get(request.manager)
+    if target is None:
+        raise LaunchError(
+            f"spawner {node.full_name!r}: controller manager {request.manager} is no runner's "
+            f"(theirs: {', '.join(managers) or 'none'}); "
+            "set -c, or the runner's controller_manager",
+            file=node.location.file, line=node.location.line)
+    for option in request.ignored:
+        warnings.append(f"{node.location}: spawner {node.full_name!r}: {option} ignored: "
+                        "the runner loads and starts its controllers at once, unloads at exit")
+    target.components.extend(controller_specs(node, request, target.controllers))
+
+
+def _manager_of(runner: RunnerDeployment) -> str:
+    if runner.controllers is not None:
+        return runner.controllers.manager
+    return expand(runner.settings.controller_manager, namespace_of(runner.name))
 
 
 def _component_spec(node: NodeDescription, params: ParameterStore) -> tuple[ComponentSpec, str]:

@@ -23,6 +23,7 @@ from typing import Any
 from .._core._errors import LaunchError, Location
 from .._core._names import validate_name
 from ._description import LaunchDescription, NodeDescription
+from ._spawner import PACKAGE, node_name
 from ._xml_reading import Config, Element, Handler, LaunchFile, Reader, Scope, parse_xml
 from ._xml_ros1 import Ros1Tags, infer_ros1
 from ._xml_ros2 import Ros2Tags, infer_ros2
@@ -259,6 +260,8 @@ class _Loader:
         executable = exec_ if exec_ is not None else type_
         assert executable is not None
         name = self._reader.attr(element, scope, "name")
+        if name is None and package == PACKAGE:  # ros2_control's: as it names itself
+            name = node_name(executable, self._node_args(element, scope))
         if name is None:
             name = executable
             self._reader.warn(
