@@ -136,3 +136,18 @@ def test_claimants_in_two_lanes_are_refused() -> None:
     nodes[1].lane = "main"
     graph = build_graph(nodes)
     assert graph.order == ["/a", "/b", "/hw"] and len(graph.edges) == 2
+
+
+def test_a_switch_that_would_leave_two_claimants_active_is_refused() -> None:
+    from rtcf._ros2._controller_manager import _claim_conflict
+
+    states = {"jtc": "active", "teleop": "inactive", "other": "inactive", "jsb": "active"}
+    claims = {"jtc": ["/cmd"], "teleop": ["/cmd"], "other": ["/cmd"], "jsb": []}
+    assert _claim_conflict(["teleop"], [], states, claims) == (
+        "Unable to activate controller 'teleop' since the command interface '/cmd' is "
+        "currently claimed by another controller ('jtc').")
+    assert _claim_conflict(["teleop"], ["jtc"], states, claims) == ""
+    assert _claim_conflict(["teleop", "other"], ["jtc"], states, claims) == (
+        "Unable to activate controller 'other' since the command interface '/cmd' will be "
+        "used by another controller that is being activated ('teleop').")
+    assert _claim_conflict(["jtc"], ["jtc"], states, claims) == ""  # a restart keeps it
