@@ -25,6 +25,7 @@ class Loaded(Protocol):
 
     state: int
     component: Any
+    spec: Any
 
 
 def claimed_topics(component: Any) -> list[str]:
@@ -52,9 +53,12 @@ def activation_conflict(entries: Mapping[str, Loaded], name: str) -> str:
     return ""
 
 
-def start_conflict(entries: Mapping[str, Loaded], starting: Collection[str]) -> str:
-    """Why the components ``starting`` may not all start ("" if they may): two claimants
-    of one topic would be active at once."""
+def start_conflict(
+    entries: Mapping[str, Loaded], starting: Collection[str]
+) -> tuple[str, str]:
+    """Why the components ``starting`` may not all start ("" if they may), and the
+    second of two claimants of one topic that would be active at once (its file and
+    line go with the error)."""
     holders: dict[str, str] = {}
     for name, entry in entries.items():
         if entry.state != ACTIVE and name not in starting:
@@ -66,7 +70,8 @@ def start_conflict(entries: Mapping[str, Loaded], starting: Collection[str]) -> 
                     f"{topic!r} and would both start active; at most one claimant of a topic is "
                     "active at a time: start one inactive (a spawner's --inactive, or "
                     "autostart=False in its ComponentSpec) and switch to it with "
-                    "switch_controller or a lifecycle activate"
+                    "switch_controller or a lifecycle activate",
+                    name,
                 )
             holders[topic] = name
-    return ""
+    return "", ""

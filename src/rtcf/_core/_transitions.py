@@ -123,9 +123,12 @@ class Transitions:
             and loaded[name].state == INACTIVE and loaded[name].autostart
             and name not in standing_by
         ]
-        conflict = start_conflict(loaded, starting)
+        conflict, second = start_conflict(loaded, starting)
         if conflict:
-            raise ConfigurationError(conflict)
+            where = loaded[second].spec.location
+            raise ConfigurationError(
+                conflict, file=where.file if where else None, line=where.line if where else None
+            )
         for name in starting:
             entry = loaded[name]
             try:
