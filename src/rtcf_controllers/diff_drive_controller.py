@@ -107,7 +107,7 @@ class DiffDriveController(rtcf.Component):
                                            (odometry, transform, tf_message))
 
         self.cmd_vel = self.add_input("~cmd_vel", twist)
-        self.velocity_command = self.add_output("velocity_command", np.ndarray)
+        self.velocity_command = self.add_output("velocity_command", np.ndarray, claim=True)
         self.feedback = None
         if not self.open_loop:
             interface = "position" if self.position_feedback else "velocity"

@@ -50,7 +50,7 @@ class ForwardCommandController(rtcf.Component):
         self.interface_name = interface
         message = message_class(self, "std_msgs.msg", "Float64MultiArray")
         self.commands = self.add_input("~/commands", message)
-        self.command = self.add_output(f"{interface}_command", np.ndarray)
+        self.command = self.add_output(f"{interface}_command", np.ndarray, claim=True)
         self.value: np.ndarray | None = None
         self.refused = Throttled(self)
 

@@ -44,7 +44,7 @@ class JointTrajectoryController(rtcf.Component):
 
         # ports: ros2_control's interfaces, and the controller's topics and action
         self.state_in = {s: self.add_input(s, np.ndarray) for s in self.cfg.state_interfaces}
-        self.command_out = {c: self.add_output(f"{c}_command", np.ndarray)
+        self.command_out = {c: self.add_output(f"{c}_command", np.ndarray, claim=True)
                             for c in self.cfg.command_interfaces}
         self.trajectory_in = self.add_input("~/joint_trajectory", JointTrajectory)
         self.state_out = self.add_output("~/controller_state", JointTrajectoryControllerState)

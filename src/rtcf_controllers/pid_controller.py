@@ -86,7 +86,8 @@ class PidController(rtcf.Component):
         self.state_ports = [] if external else [
             self.add_input(name, np.ndarray) for name in interfaces
         ]
-        self.command_port = self.add_output(f"{command_interface}_command", np.ndarray)
+        self.command_port = self.add_output(
+            f"{command_interface}_command", np.ndarray, claim=True)
         self.controller_state = self.add_output("~/controller_state", self.state_msg)
         self.index = {name: k for k, name in enumerate(state_dofs)}
         self.refused = Throttled(self)  # each kind of problem rate-limited on its own

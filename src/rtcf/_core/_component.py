@@ -49,6 +49,7 @@ class Component:
     _rtcf_resolver: Resolver
     _rtcf_inputs: dict[str, InputPort[Any]]
     _rtcf_outputs: dict[str, OutputPort[Any]]
+    _rtcf_claims: set[str]  # names of the outputs declared claim=True
     _rtcf_actions: dict[str, ActionServer]
     _rtcf_configured: bool
     _rtcf_every: int = 1  # runs every this many iterations (its launcher's rate or every)
@@ -121,10 +122,18 @@ class Component:
         # file's may have replaced the component's)
         return self._rtcf_add_port(port, self._rtcf_inputs)
 
-    def add_output(self, name: str, type_: type[T]) -> OutputPort[T]:
-        """Declare an output port (in ``configure``); its topic is ``name`` resolved."""
+    def add_output(self, name: str, type_: type[T], *, claim: bool = False) -> OutputPort[T]:
+        """Declare an output port (in ``configure``); its topic is ``name`` resolved.
+
+        ``claim=True`` makes it a claimed command (ros2_control's command interface):
+        several components may write its topic through claimed outputs, at most one of
+        them active at a time (docs/controllers.md, "Claimed commands and switching").
+        """
         port: OutputPort[T] = OutputPort(self.full_name, name, type_, self._rtcf_state)
-        return self._rtcf_add_port(port, self._rtcf_outputs)
+        port = self._rtcf_add_port(port, self._rtcf_outputs)
+        if claim:
+            self._rtcf_claims.add(name)
+        return port
 
     def add_action_server(
         self, name: str, action_type: type, *, max_goals: int = 1
@@ -284,6 +293,7 @@ def _attach(
     component._rtcf_resolver = resolver
     component._rtcf_inputs = {}
     component._rtcf_outputs = {}
+    component._rtcf_claims = set()
     component._rtcf_actions = {}
     component._rtcf_configured = False
     component._rtcf_every = every

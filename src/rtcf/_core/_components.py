@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from ._actions import ActionServer
+from ._claims import claimed_topics
 from ._component import Component, _attach, overrides
 from ._errors import ComponentError, ConfigurationError, Location, RtcfError
 from ._faults import FailurePolicy
@@ -233,6 +234,7 @@ class Components:
             # what a ros2_control controller manager calls its type (rtcf_controllers')
             "ros2_control_type": str(getattr(type(comp), "ros2_control_type", "")),
             "lifecycle": STATE_LABELS[entry.state],
+            "claims": claimed_topics(comp),  # its claimed command topics
         }
 
     def connections(self, maps: Callable[[str], bool]) -> list[dict[str, Any]]:
@@ -313,7 +315,10 @@ class Components:
                     name=full,
                     inputs=[_info(full, p) for p in comp._rtcf_inputs.values()]
                     + extra.get(full, []),
-                    outputs=[_info(full, p) for p in comp._rtcf_outputs.values()],
+                    outputs=[
+                        _info(full, p, p.name in comp._rtcf_claims)
+                        for p in comp._rtcf_outputs.values()
+                    ],
                     is_first=entry.spec.is_first,
                     ignore_pattern=entry.ignore,
                     label=type(comp).__name__,
@@ -371,5 +376,5 @@ def _port_info(port: Any) -> dict[str, Any]:
     return info
 
 
-def _info(component: str, port: Any) -> PortInfo:
-    return PortInfo(component, port.name, port.topic, port.type)
+def _info(component: str, port: Any, claimed: bool = False) -> PortInfo:
+    return PortInfo(component, port.name, port.topic, port.type, claimed)

@@ -27,6 +27,7 @@ class PortInfo:
     name: str
     topic: str
     type: type[Any]
+    claimed: bool = False  # a claimed command: one of several writers, one active at a time
 
     @property
     def qualified_name(self) -> str:
@@ -101,21 +102,12 @@ def build_graph(nodes: Sequence[GraphNode], let_lanes: Collection[str] = ()) -> 
         for p in node.inputs:
             consumers.setdefault(p.topic, []).append(p)
 
+    by_name = {n.name: n for n in nodes}
     warnings: list[str] = []
     for topic, prods in sorted(producers.items()):
         if len(prods) > 1:
-            who = ", ".join(p.qualified_name for p in prods)
-            if topic in consumers:
-                raise GraphError(
-                    f"topic {topic!r} has {len(prods)} producers ({who}); a topic may have one "
-                    "producer: remap all but one of these outputs to other topics"
-                )
-            warnings.append(
-                f"topic {topic!r} is written by {len(prods)} outputs ({who}) and read by none; "
-                "the values are lost: remap the outputs to distinct topics"
-            )
+            _check_producers(topic, prods, consumers.get(topic, []), by_name, warnings)
 
-    by_name = {n.name: n for n in nodes}
     edges: list[Edge] = []
     unconnected: list[PortInfo] = []
     for node in nodes:
@@ -124,22 +116,22 @@ def build_graph(nodes: Sequence[GraphNode], let_lanes: Collection[str] = ()) -> 
             if not found:
                 unconnected.append(inp)
                 continue
-            out = found[0]
-            if not types_compatible(out.type, inp.type):
-                raise GraphError(
-                    f"type mismatch on topic {inp.topic!r}: output {out.qualified_name} is "
-                    f"{_type_name(out.type)} but input {inp.qualified_name} is "
-                    f"{_type_name(inp.type)}; make both ports the same type or remap one"
-                )
-            ignored_by = None
-            lanes = (by_name[out.component].lane, node.lane)
-            if lanes[0] != lanes[1] and (lanes[0] in let_lanes or lanes[1] in let_lanes):
-                ignored_by = "logical execution time"
-            elif node.is_first:
-                ignored_by = "is_first"
-            elif node.ignore_pattern is not None and node.ignore_pattern.fullmatch(inp.topic):
-                ignored_by = "topics_ignore_for_graph"
-            edges.append(Edge(inp.topic, out, inp, ignored_by))
+            for out in found:  # several: claimed commands, each ordered before the readers
+                if not types_compatible(out.type, inp.type):
+                    raise GraphError(
+                        f"type mismatch on topic {inp.topic!r}: output {out.qualified_name} is "
+                        f"{_type_name(out.type)} but input {inp.qualified_name} is "
+                        f"{_type_name(inp.type)}; make both ports the same type or remap one"
+                    )
+                ignored_by = None
+                lanes = (by_name[out.component].lane, node.lane)
+                if lanes[0] != lanes[1] and (lanes[0] in let_lanes or lanes[1] in let_lanes):
+                    ignored_by = "logical execution time"
+                elif node.is_first:
+                    ignored_by = "is_first"
+                elif node.ignore_pattern is not None and node.ignore_pattern.fullmatch(inp.topic):
+                    ignored_by = "topics_ignore_for_graph"
+                edges.append(Edge(inp.topic, out, inp, ignored_by))
 
     unconsumed = [p for n in nodes for p in n.outputs if p.topic not in consumers]
     order = kahn_order(
@@ -148,6 +140,46 @@ def build_graph(nodes: Sequence[GraphNode], let_lanes: Collection[str] = ()) -> 
         by_name,
     )
     return Graph(list(nodes), edges, order, unconnected, unconsumed, warnings)
+
+
+def _check_producers(
+    topic: str,
+    prods: list[PortInfo],
+    readers: list[PortInfo],
+    by_name: dict[str, GraphNode],
+    warnings: list[str],
+) -> None:
+    """Several outputs write ``topic``: claimed commands of one lane (one active at a time,
+    :mod:`rtcf._core._claims`) with their readers in that lane, or an error when someone
+    reads it (else a warning)."""
+    who = ", ".join(p.qualified_name for p in prods)
+    plain = [p.qualified_name for p in prods if not p.claimed]
+    if not plain:
+        lanes = sorted({by_name[p.component].lane for p in (*prods, *readers)})
+        if len(lanes) > 1:
+            raise GraphError(
+                f"topic {topic!r} is claimed by {who} and read in lanes {', '.join(lanes)}; "
+                "the claimants of a command topic and its readers must run in one lane: "
+                "move them to one lane"
+            )
+        return
+    if len(plain) < len(prods):
+        raise GraphError(
+            f"topic {topic!r} is written by claimed outputs and by the plain output(s) "
+            f"{', '.join(plain)} ({who}); a claimed command topic may only have claimed "
+            "writers: declare them all with add_output(..., claim=True), or remap the plain one"
+        )
+    if readers:
+        raise GraphError(
+            f"topic {topic!r} has {len(prods)} producers ({who}); a topic may have one "
+            "producer: remap all but one of these outputs to other topics (or, for commands "
+            "that one active controller at a time writes, declare them with "
+            "add_output(..., claim=True))"
+        )
+    warnings.append(
+        f"topic {topic!r} is written by {len(prods)} outputs ({who}) and read by none; "
+        "the values are lost: remap the outputs to distinct topics"
+    )
 
 
 def kahn_order(

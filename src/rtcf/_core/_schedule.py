@@ -130,12 +130,14 @@ class Schedule:
         graph = self._topology.graph
         loaded = self._components.entries
         fallbacks = self._components.fallbacks()
-        outputs: dict[str, OutputPort[Any]] = {
-            p.topic: p
-            for n, e in loaded.items()
-            if n not in fallbacks
-            for p in e.component._rtcf_outputs.values()
-        }
+        outputs: dict[str, OutputPort[Any]] = {}
+        for n, e in loaded.items():
+            if n in fallbacks:
+                continue
+            for p in e.component._rtcf_outputs.values():
+                first = outputs.setdefault(p.topic, p)
+                if first is not p and p.name in e.component._rtcf_claims:
+                    p._slot = first._slot  # claimed commands (the graph let them): one slot
         # a topic produced in another lane's process: its value arrives by a handover
         # into a stand-in output's slot, which this lane's readers share
         for node in self._topology.foreign_nodes:

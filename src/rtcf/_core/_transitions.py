@@ -13,8 +13,9 @@ from __future__ import annotations
 from collections.abc import Callable, Iterable, Sequence
 
 from ._actions import abort_open
+from ._claims import activation_conflict, start_conflict
 from ._components import Components, Loaded
-from ._errors import ComponentError
+from ._errors import ComponentError, ConfigurationError
 from ._lifecycle import (
     ACTIVATE,
     ACTIVE,
@@ -81,7 +82,10 @@ class Transitions:
         if isinstance(transition, str) and transition.isdigit():
             transition = int(transition)
         tid = resolve_transition(entry.state, transition)
-        if tid is None:
+        conflict = activation_conflict(loaded, full) if tid == ACTIVATE else ""
+        if conflict:  # its claimed command topic is another active component's
+            outcome = refused(entry.state, conflict)
+        elif tid is None:
             allowed = ", ".join(
                 f"{d.label} [{d.transition}]" for d in available_transitions(entry.state)
             )
@@ -113,12 +117,20 @@ class Transitions:
         loaded = self._components.entries
         started = False
         standing_by = self._components.fallbacks()  # a fallback starts when its primary fails
-        for name in order:
-            entry = loaded.get(name)
-            if entry is None:  # another lane's
-                continue
-            if entry.state != INACTIVE or not entry.autostart or name in standing_by:
-                continue
+        starting = [
+            name for name in order
+            if name in loaded  # (not another lane's)
+            and loaded[name].state == INACTIVE and loaded[name].autostart
+            and name not in standing_by
+        ]
+        conflict, second = start_conflict(loaded, starting)
+        if conflict:
+            where = loaded[second].spec.location
+            raise ConfigurationError(
+                conflict, file=where.file if where else None, line=where.line if where else None
+            )
+        for name in starting:
+            entry = loaded[name]
             try:
                 self._notices.observe(name, "start")
                 ok = entry.component.start()

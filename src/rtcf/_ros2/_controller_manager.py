@@ -21,6 +21,10 @@ those tools see and switch rtcf's controllers:
   fails undoes those made (in one iteration again: the loop ran one or more with the
   switch half made); ``BEST_EFFORT`` (also for 0, ``AUTO`` and
   ``FORCE_AUTO``, as ros2_control falls back) leaves the offending ones out and goes on.
+  Then, whatever the strictness, the claims (``add_output(..., claim=True)``): a
+  controller to activate may not claim a command topic that a controller staying
+  active holds, nor one another controller to activate claims; ``list_controllers``
+  gives an active controller's claimed topics as its ``claimed_interfaces``.
 
 Both run in the bridge's executor thread, as the components' lifecycle services do;
 the worker never sees them other than as lifecycle transitions.
@@ -101,6 +105,8 @@ class ControllerManager:
             state.type = str(info.get("ros2_control_type") or info.get("type", ""))
             state.is_async = info.get("lane", MAIN_LANE) != MAIN_LANE and every > 1
             state.update_rate = min(65535, max(0, round(frequency / every)))
+            if state.state == "active":  # what it holds: its claimed command topics
+                state.claimed_interfaces = [str(t) for t in info.get("claims", [])]
             response.controller.append(state)
         return response
 
@@ -120,8 +126,9 @@ class ControllerManager:
     def _do_switch(
         self, activate: list[str], deactivate: list[str], strict: bool, timeout: float | None
     ) -> tuple[bool, str]:
-        states = {self._short(str(c["name"])): str(c.get("lifecycle", ""))
-                  for c in self._runner.introspect().get("components", [])}
+        components = self._runner.introspect().get("components", [])
+        states = {self._short(str(c["name"])): str(c.get("lifecycle", "")) for c in components}
+        claims = {self._short(str(c["name"])): list(c.get("claims", [])) for c in components}
         problems: list[str] = []
         lists = []
         for action, names in (("deactivate", deactivate), ("activate", activate)):
@@ -163,6 +170,9 @@ class ControllerManager:
                 to_deactivate.remove(name)
         if not to_activate and not to_deactivate:
             return True, NOTHING_TO_DO
+        conflict = _claim_conflict(to_activate, to_deactivate, states, claims)
+        if conflict:  # refused whatever the strictness, as ros2_control does
+            return False, conflict
         return self._transitions(to_deactivate, to_activate, strict, timeout)
 
     def _transitions(
@@ -188,3 +198,28 @@ class ControllerManager:
         if failed and not done:
             return False, "\n".join(failed)
         return True, "\n".join(failed)
+
+
+def _claim_conflict(
+    to_activate: list[str], to_deactivate: list[str], states: dict[str, str],
+    claims: dict[str, list[str]],
+) -> str:
+    """Why the switch may not run ("" if it may): a controller to activate claims a
+    command topic that one staying active holds, or that another one to activate claims
+    too (the controller manager's availability check, its words, with the holder)."""
+    held = {topic: name for name, state in states.items()
+            if state == "active" and name not in to_deactivate for topic in claims[name]}
+    coming: dict[str, str] = {}
+    for name in to_activate:
+        if name in to_deactivate:  # restarted: it keeps what it holds
+            continue
+        for topic in claims[name]:
+            if topic in held:
+                return (f"Unable to activate controller '{name}' since the command interface "
+                        f"'{topic}' is currently claimed by another controller ('{held[topic]}').")
+            if topic in coming:
+                return (f"Unable to activate controller '{name}' since the command interface "
+                        f"'{topic}' will be used by another controller that is being activated "
+                        f"('{coming[topic]}').")
+            coming[topic] = name
+    return ""

@@ -3,7 +3,8 @@
 --middleware ros2`` of the controllers' example (simple.launch.xml, configured by its
 ros2_controllers YAML file), as ``ros2 control`` and rqt_controller_manager do; and a
 publisher of ``/forward_position_controller/commands`` whose command of the wrong length
-is refused."""
+is refused; and two controllers claiming one command topic (a bringup's spawners, one
+``--inactive``) between which a switch moves the claim."""
 
 from __future__ import annotations
 
@@ -43,6 +44,16 @@ def _switch(node, activate=(), deactivate=(), strictness=STRICT) -> tuple[bool, 
     return res.ok, res.message
 
 
+def _env_and_joint_states(node) -> tuple[dict[str, str], list[JointState]]:
+    """The launch's environment (the fixtures' hardware importable), and the
+    /joint_states that ``node`` receives."""
+    env = rtcf_env()
+    env["PYTHONPATH"] = f"{ROOT}:{env['PYTHONPATH']}"
+    joint_states: list[JointState] = []
+    node.create_subscription(JointState, "/joint_states", joint_states.append, 10)
+    return env, joint_states
+
+
 def _states(node) -> dict[str, str]:
     return {name: row[0] for name, row in _list(node).items()}
 
@@ -63,10 +74,7 @@ WITH_REFUSER = """<launch>
 
 
 def test_list_controllers_and_switch_one_off_while_the_others_run(ros_node, tmp_path) -> None:
-    env = rtcf_env()
-    env["PYTHONPATH"] = f"{ROOT}:{env['PYTHONPATH']}"
-    joint_states: list[JointState] = []
-    ros_node.create_subscription(JointState, "/joint_states", joint_states.append, 10)
+    env, joint_states = _env_and_joint_states(ros_node)
     records: list[Log] = []
     ros_node.create_subscription(Log, "/rosout", records.append, QoSProfile(
         depth=1000, reliability=ReliabilityPolicy.RELIABLE,
@@ -169,3 +177,83 @@ def test_list_controllers_and_switch_one_off_while_the_others_run(ros_node, tmp_
     switch = [(who, hook) for who, hook, _ in hooks[2:5]]
     assert switch == [("standby", "stop"), ("refuser", "stop"), ("standby", "start")]
     assert hooks[3][2] == hooks[4][2], hooks  # the same iteration
+
+
+# two controllers claiming the arm's position_command, as a bringup spawns them: one
+# active, the other --inactive
+CLAIMS_YAML = """controller_manager:
+  ros__parameters:
+    update_rate: 100
+    joint_state_broadcaster: {type: joint_state_broadcaster/JointStateBroadcaster}
+    forward_position_controller: {type: forward_command_controller/ForwardCommandController}
+    arm_teleop: {type: position_controllers/JointGroupPositionController}
+joint_state_broadcaster:
+  ros__parameters: {joints: [joint1, joint2, joint3], interfaces: [position]}
+forward_position_controller:
+  ros__parameters: {joints: [joint1, joint2, joint3], interface_name: position}
+arm_teleop:
+  ros__parameters: {joints: [joint1, joint2, joint3]}
+"""
+CLAIMS = """<launch>
+  <node pkg="rtcf" exec="rt_runner" name="rt_runner">
+    <param name="mode" value="no_wait"/>
+    <param name="ros_mapping_whitelist"
+           value="/joint_states|/forward_position_controller/commands|/arm_teleop/commands"/>
+    <param from="{yaml}"/>
+  </node>
+  <node pkg="rtcf" exec="rt_launcher" name="hardware"
+        args="tests.ros2.controllers._plants PositionJoints">
+    <param name="is_first" value="true"/>
+  </node>
+  <node pkg="controller_manager" exec="spawner"
+        args="joint_state_broadcaster forward_position_controller"/>
+  <node pkg="controller_manager" exec="spawner" args="arm_teleop --inactive"/>
+</launch>
+"""
+
+
+def test_a_switch_moves_the_claim_of_a_command_topic(ros_node, tmp_path) -> None:
+    env, joint_states = _env_and_joint_states(ros_node)
+    forward = ros_node.create_publisher(
+        Float64MultiArray, "/forward_position_controller/commands", 10)
+    teleop = ros_node.create_publisher(Float64MultiArray, "/arm_teleop/commands", 10)
+    (tmp_path / "claims.yaml").write_text(CLAIMS_YAML)
+    launch = tmp_path / "claims.launch.xml"
+    launch.write_text(CLAIMS.format(yaml=tmp_path / "claims.yaml"))
+    proc = _proc.start_rtcf(env, "launch", launch, "--middleware", "ros2")
+
+    def claims() -> dict[str, tuple[str, list[str]]]:
+        res = call(ros_node, ListControllers, "/controller_manager/list_controllers",
+                   ListControllers.Request())
+        return {c.name: (c.state, list(c.claimed_interfaces)) for c in res.controller
+                if c.name in ("forward_position_controller", "arm_teleop")}
+
+    def follows(command: list[float], publisher) -> bool:
+        # the other publishes too: only the active controller's command reaches the arm
+        other = teleop if publisher is forward else forward
+        return spin_until(ros_node, lambda: bool(joint_states) and list(
+            joint_states[-1].position) == command, publish=lambda: (
+            publisher.publish(Float64MultiArray(data=command)),
+            other.publish(Float64MultiArray(data=[9.0, 9.0, 9.0]))))
+
+    try:
+        wait_running(proc, text="real-time:")
+        assert claims() == {"forward_position_controller": ("active", ["/position_command"]),
+                            "arm_teleop": ("inactive", [])}
+        assert follows([0.1, 0.2, 0.3], forward), "the arm did not follow the forward controller"
+        # activating the other while the forward controller holds the topic: refused
+        assert _switch(ros_node, activate=["arm_teleop"], strictness=BEST_EFFORT) == (
+            False, "Unable to activate controller 'arm_teleop' since the command interface "
+            "'/position_command' is currently claimed by another controller "
+            "('forward_position_controller').")
+        # one switch moves the claim
+        assert _switch(ros_node, activate=["arm_teleop"],
+                       deactivate=["forward_position_controller"]) == (True, "")
+        assert claims() == {"forward_position_controller": ("inactive", []),
+                            "arm_teleop": ("active", ["/position_command"])}
+        joint_states.clear()
+        assert follows([0.5, -0.5, 0.25], teleop), "the arm did not follow arm_teleop"
+        assert all(list(m.position) != [9.0, 9.0, 9.0] for m in joint_states)
+    finally:
+        _, err = stop(proc)
+    assert "lifecycle: activate: inactive -> active" in err
