@@ -151,3 +151,22 @@ def test_a_switch_that_would_leave_two_claimants_active_is_refused() -> None:
         "Unable to activate controller 'other' since the command interface '/cmd' will be "
         "used by another controller that is being activated ('teleop').")
     assert _claim_conflict(["jtc"], ["jtc"], states, claims) == ""  # a restart keeps it
+
+
+def test_a_launch_file_starts_one_claimant_inactive_with_autostart_false(tmp_path) -> None:
+    from rtcf.testing import run_launch
+
+    here = "tests.unit.test_claims"
+    launch = tmp_path / "claims.launch"
+    nodes = (f'<node name="hw" pkg="rtcf" type="rt_launcher" args="{here} Hardware"/>'
+             f'<node name="jtc" pkg="rtcf" type="rt_launcher" args="{here} Commander"/>'
+             f'<node name="teleop" pkg="rtcf" type="rt_launcher" args="{here} Teleop">'
+             '<param name="autostart" value="{}"/></node>')
+    runner = ('<node name="rt_runner" pkg="rtcf" type="rt_runner">'
+              '<param name="frequency" value="100"/></node>')
+    launch.write_text(f"<launch>{runner}{nodes.format('false')}</launch>")
+    trace = run_launch(str(launch), 3)
+    assert trace.outputs["/cmd"] == [0.0, 1.0, 2.0]  # the jtc's; the teleop waits
+    launch.write_text(f"<launch>{runner}{nodes.format('true')}</launch>")
+    with pytest.raises(ConfigurationError, match="/teleop"):
+        run_launch(str(launch), 3)

@@ -248,6 +248,9 @@ def _component_spec(node: NodeDescription, params: ParameterStore) -> tuple[Comp
         if is_first_flag and not value:
             raise err("conflicting is_first: args has -f but parameter ~is_first is false")
         is_first = is_first or value
+    autostart = _as_bool(private.get("autostart", True))
+    if autostart is None:
+        raise err(f"parameter ~autostart is {private['autostart']!r}; use true or false")
     ignore = private.get("topics_ignore_for_graph", "")
     if not isinstance(ignore, str):
         raise err(f"parameter ~topics_ignore_for_graph is {ignore!r}; it must be a regex string")
@@ -270,6 +273,7 @@ def _component_spec(node: NodeDescription, params: ParameterStore) -> tuple[Comp
         policy=policy,
         rate=rate,
         lane=lane,
+        autostart=autostart,
     )
     return spec, str(runner_name)
 

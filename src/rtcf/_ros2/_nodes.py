@@ -58,7 +58,7 @@ WATCH_EVERY_S = 1.0
 ANSWER_TIMEOUT_S = 60.0  # the longest a launcher waits for its runner's answer
 # the launcher's own, never a component's (rclpy's nodes declare the first two)
 _RESERVED = {"use_sim_time", "start_type_description_service", "runner", "is_first",
-             "topics_ignore_for_graph"}
+             "topics_ignore_for_graph", "autostart"}
 
 
 def _say(who: str, text: str) -> None:
@@ -326,6 +326,13 @@ def runner_main(argv: list[str] | None = None) -> int:
     return status
 
 
+def _flag(value: Any) -> bool:
+    """A boolean parameter given as a bool or as text (launch XML's "false")."""
+    if isinstance(value, str):
+        return value.strip().lower() not in ("false", "0", "no")
+    return bool(value)
+
+
 def _value(v: Any) -> Any:
     """The Python value of an rcl_interfaces ParameterValue."""
     from rclpy.parameter import parameter_value_to_python
@@ -408,6 +415,7 @@ def launcher_main(argv: list[str] | None = None) -> int:
         "remaps": [f"{a}:={b}" for a, b in _ros_remaps(argv, node.get_name())] or [""],
         "is_first": is_first or bool(params.get("is_first", False)),
         "topics_ignore_for_graph": str(params.get("topics_ignore_for_graph") or ""),
+        "autostart": _flag(params.get("autostart", True)),
         "launcher": me,
     }
     if values["remaps"] == [""]:

@@ -124,6 +124,8 @@ _LAUNCHER_USAGE = {
 _LAUNCHER_PARAMETERS = [
     ("is_first", "false", "the component starts a cycle (its inputs read the last "
      "iteration's values); also the flag -f"),
+    ("autostart", "true", "false: configured but left inactive when the loop starts "
+     "(a claimant of a command topic another controller holds; switch to it later)"),
     ("lane", "main", "the lane (a worker process of its own) it runs in"),
     ("rate", "", "its rate in Hz, a divisor of the runner's frequency"),
     ("update_rate", "0", "ros2_control's name of rate (0: the runner's frequency)"),
