@@ -7,7 +7,8 @@ import pytest
 from rtcf._runtime._request_fields import RequestRefused, check_request
 
 GOOD = {"module": "rtcf_examples", "class": "Mimo", "name": "sum1", "namespace": "/arm",
-        "remaps": ["in1:=/x", ""], "is_first": False, "topics_ignore_for_graph": "/ros/.*",
+        "remaps": ["in1:=/x", ""], "is_first": False, "autostart": False,
+        "topics_ignore_for_graph": "/ros/.*",
         "launcher": "/arm/sum1", "param.gain": 2.0, "param.names": ["a", "b"]}
 
 
@@ -19,6 +20,7 @@ def test_a_well_formed_load_passes_as_it_is() -> None:
     ("remaps", 7, "field 'remaps' got 7 (int); it wants a list of 'from:=to' strings"),
     ("remaps", ["a=b"], "('a=b' is not one)"),
     ("is_first", "yes", "field 'is_first' got 'yes' (str); it wants true or false"),
+    ("autostart", "no", "field 'autostart' got 'no' (str); it wants true or false"),
     ("name", "x" * 5000, "of at most 255 characters"),
     ("name", "no spaces", "field 'name' got 'no spaces' (str); it wants a name of letters"),
     ("module", "os; rm -rf /", "it wants a Python module name"),
@@ -27,7 +29,7 @@ def test_a_well_formed_load_passes_as_it_is() -> None:
     ("topics_ignore_for_graph", "(", "it wants a regular expression"),
     ("log_level", True, "it wants an integer"),
     ("param.gain", {"kp": 1}, "it wants a bool, int, float or string, or a list of them"),
-    ("lane", "left", "unknown field 'lane'; it takes class, is_first"),
+    ("lane", "left", "unknown field 'lane'; it takes autostart, class, is_first"),
 ])
 def test_a_load_field_that_is_not_what_it_must_be_is_refused_by_name(field, value, said) -> None:
     with pytest.raises(RequestRefused) as exc:

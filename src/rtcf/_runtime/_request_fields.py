@@ -94,6 +94,7 @@ FIELDS: dict[str, dict[str, Callable[[Any], str | None]]] = {
         "namespace": _string(_NAMESPACE, "a namespace (/ or /a/b)"),
         "remaps": _remaps,
         "is_first": _boolean,
+        "autostart": _boolean,
         "topics_ignore_for_graph": _regex,
         "launcher": _string(_NAME, "the launcher's node name"),
         "log_level": _integer,
