@@ -68,8 +68,9 @@ def start_conflict(
                 return (
                     f"components {holders[topic]!r} and {name!r} both claim the command topic "
                     f"{topic!r} and would both start active; at most one claimant of a topic is "
-                    "active at a time: start one inactive (a spawner's --inactive, or "
-                    "autostart=False in its ComponentSpec) and switch to it with "
+                    "active at a time: start one inactive (a spawner's --inactive, a "
+                    "launcher's parameter autostart false, or autostart=False in its "
+                    "ComponentSpec) and switch to it with "
                     "switch_controller or a lifecycle activate",
                     name,
                 )
