@@ -8,6 +8,7 @@ from ._core._cdr import Serialized as Serialized
 from ._core._clock import Clock as Clock
 from ._core._clock import MonotonicClock as MonotonicClock
 from ._core._clock import SimClock as SimClock
+from ._core._command_limits import JointLimits as JointLimits
 from ._core._component import Component as Component
 from ._core._errors import ComponentError as ComponentError
 from ._core._errors import ConfigurationError as ConfigurationError

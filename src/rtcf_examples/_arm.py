@@ -71,7 +71,11 @@ class MujocoArm(rtcf.Component):
         initial = self.params.get("~initial_positions", [0.0] * n)
         self.data.qpos[:] = _floats(initial, n, "~initial_positions")
         mujoco.mj_forward(model, self.data)
-        self.effort_command = self.add_input("effort_command", np.ndarray)
+        # the motors' torques, checked before each step: never a non-finite one, and
+        # within the model's control range (launch files may narrow it: joint_limits)
+        self.effort_command = self.add_command_input(
+            "effort_command", "effort", self.joints,
+            _mujoco.actuator_limits(model, range(n), "effort"))
         self.position = self.add_output("position", np.ndarray)
         self.velocity = self.add_output("velocity", np.ndarray)
         self.effort = self.add_output("effort", np.ndarray)

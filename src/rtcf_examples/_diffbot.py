@@ -66,7 +66,12 @@ class MujocoDiffbot(rtcf.Component):
                 f"~base_body {body!r}: the model {path} has no such body"
             ) from None
         mujoco.mj_forward(model, self.data)
-        self.velocity_command = self.add_input("velocity_command", np.ndarray)
+        # the wheels' speeds, checked before each step: never a non-finite one, and
+        # within the model's control range where it has one (launch files may narrow
+        # it: joint_limits.<wheel>.max_velocity)
+        self.velocity_command = self.add_command_input(
+            "velocity_command", "velocity", joints,
+            _mujoco.actuator_limits(model, self.actuators, "velocity"))
         self.position = self.add_output("position", np.ndarray)
         self.velocity = self.add_output("velocity", np.ndarray)
         self.base_pose = self.add_output("~base_pose", np.ndarray)

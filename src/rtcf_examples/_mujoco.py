@@ -54,3 +54,22 @@ def load_simulation(component: rtcf.Component, default_model: str) -> Simulation
             "the model, or the loop's frequency or the component's rate"
         )
     return Simulation(mujoco, model, mujoco.MjData(model), path, round(steps))
+
+
+def actuator_limits(model: Any, actuators: Any, command: str) -> list[rtcf.JointLimits]:
+    """The limits a real drive would have, as the model gives them, per actuator: its
+    joint's ``range`` (positions) and its control range as the ``command`` interface's
+    magnitude (a torque motor's ``effort``, a velocity servo's ``velocity``): the
+    smaller side of ``ctrlrange``, where the model limits it. The framework clamps the
+    hardware's commands to them (docs/hardware-limits.md)."""
+    limits = []
+    for i in actuators:
+        joint = int(model.actuator_trnid[i, 0])
+        fields: dict[str, float] = {}
+        if model.jnt_limited[joint]:
+            fields["min_position"], fields["max_position"] = map(float, model.jnt_range[joint])
+        lo, hi = map(float, model.actuator_ctrlrange[i])
+        if model.actuator_ctrllimited[i] and lo < 0.0 < hi:
+            fields[{"effort": "max_effort", "velocity": "max_velocity"}[command]] = min(-lo, hi)
+        limits.append(rtcf.JointLimits(**fields))
+    return limits

@@ -18,6 +18,7 @@ from typing import Any
 from .. import __version__
 from .._core import _hotpath
 from .._core._clock import MonotonicClock, SimClock
+from .._core._command_limits import describe_summary
 from .._core._errors import LaunchError, RtcfError
 from .._core._graph import Graph, to_dot, to_mermaid
 from .._core._names import basename, namespace_of
@@ -321,6 +322,10 @@ def cmd_launch(ns: argparse.Namespace) -> int:
                         f"{d['expired_seconds']:.3f} s "
                         "in all" + (" (still past it at the end)" if d["past_deadline_now"] else "")
                     )
+            for port, d in result.command_limits.items():
+                line = describe_summary(port, d)
+                if line:
+                    _say(line)
             if result.stopped_by == "abort":
                 done = ", ".join(o.describe() for o in result.safe_stops) or "none defined"
                 _say(f"stopped abnormally; safe stops: {done}")
@@ -474,6 +479,8 @@ class _StatusLine:
             text += f"  {st.log_records_dropped} log records dropped"
         if st.past_deadline:
             text += f"  past deadline: {', '.join(st.past_deadline)}"
+        if st.commands_clamped or st.commands_refused:
+            text += f"  commands clamped {st.commands_clamped}, refused {st.commands_refused}"
         sys.stderr.write("\r" + text + "\x1b[K")
         sys.stderr.flush()
         self.shown = True

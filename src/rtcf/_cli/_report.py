@@ -116,6 +116,8 @@ def timing_document(result: RunResult, settings: RunnerSettings, wall_s: float) 
     if result.deadlines:  # inputs with a deadline: how many times past it, how long in all
         doc["deadlines"] = result.deadlines
         doc["deadline_events"] = [e.to_dict() for e in result.deadline_events]
+    if result.command_limits:  # hardware's command inputs: clamped per joint, refused
+        doc["command_limits"] = result.command_limits
     if len(result.lanes) > 1:
         doc["lanes"] = {
             name: lane_document(lane, settings, keep) for name, lane in result.lanes.items()

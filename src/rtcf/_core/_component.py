@@ -21,11 +21,14 @@ A component whose ``update`` is not overridden costs nothing in the loop.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Mapping, Sequence
 from typing import Any, TypeVar
+
+import numpy as np
 
 from ._action_protocol import ActionEvent, ActionRequest
 from ._actions import ActionServer, check_action
+from ._command_limits import CommandGuard, JointLimits, resolve_limits
 from ._errors import ComponentError
 from ._faults import deadline_ns
 from ._log import ComponentLogger, LogRing, RecordSink
@@ -51,6 +54,7 @@ class Component:
     _rtcf_outputs: dict[str, OutputPort[Any]]
     _rtcf_claims: set[str]  # names of the outputs declared claim=True
     _rtcf_actions: dict[str, ActionServer]
+    _rtcf_guards: dict[str, CommandGuard]  # command inputs' checks, by port name
     _rtcf_configured: bool
     _rtcf_every: int = 1  # runs every this many iterations (its launcher's rate or every)
     # while configure runs again (lifecycle): the port names declared so far
@@ -133,6 +137,44 @@ class Component:
         port = self._rtcf_add_port(port, self._rtcf_outputs)
         if claim:
             self._rtcf_claims.add(name)
+        return port
+
+    def add_command_input(
+        self,
+        name: str,
+        interface: str,
+        joints: Sequence[str],
+        limits: Mapping[str, JointLimits] | Sequence[JointLimits] | None = None,
+        *,
+        deadline: float | None = None,
+    ) -> InputPort[Any]:
+        """Declare an input (in ``configure``) that takes commands to hardware: one
+        float64 array per command, a value per joint of ``joints``, of ros2_control's
+        command interface ``interface`` (``position``, ``velocity``, ``acceleration``,
+        ``effort``, or another name: finite values only).
+
+        Before each ``update``, a new command is checked: one that is not finite (or
+        not one float per joint) is never passed on, the previous one is held; one
+        outside ``limits`` (per joint, by name or in order; tightened by the launch
+        file's ``joint_limits.<joint>.*``) is clamped. Each is counted and reported
+        (docs/hardware-limits.md, "What reaches your hardware").
+        """
+        joints = [str(j) for j in joints]
+        if not joints or len(set(joints)) != len(joints):
+            raise ComponentError(
+                f"component {self.full_name!r}: command input {name!r} has joints {joints}; "
+                "give one name per joint, each once",
+                component=self.full_name,
+            )
+        port = self.add_input(name, np.ndarray, deadline=deadline)
+        resolved = resolve_limits(self, joints, limits)
+        old = self._rtcf_guards.get(name)
+        if old is not None and old.port is port and old.joints == tuple(joints):
+            # configured again: the same guard with its counts, and the limits of now
+            self._rtcf_guards[name] = CommandGuard(self, port, interface, joints, resolved)
+            self._rtcf_guards[name].adopt(old)
+        else:
+            self._rtcf_guards[name] = CommandGuard(self, port, interface, joints, resolved)
         return port
 
     def add_action_server(
@@ -295,6 +337,7 @@ def _attach(
     component._rtcf_outputs = {}
     component._rtcf_claims = set()
     component._rtcf_actions = {}
+    component._rtcf_guards = {}
     component._rtcf_configured = False
     component._rtcf_every = every
 

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 
+from ._command_limits import NonFiniteCommand
 from ._component import overrides
 from ._components import Components
 from ._errors import ComponentError, LoopError
@@ -79,6 +80,11 @@ class Containment:
                 f"{exc} at iteration {failure.iteration}; the loop was stopped"
             ) from exc
         exc = failure.error
+        if isinstance(exc, NonFiniteCommand):  # the hardware refused what another wrote
+            writer = self._writer_of(exc.topic, name)
+            if writer is None:  # written in another lane: held, counted and said there
+                return
+            name, entry = writer, self._components.entries[writer]
         cause = LET_OVERRUNS if isinstance(exc, _LetOverruns) else RAISED
         error = (
             str(exc) if cause == LET_OVERRUNS
@@ -88,8 +94,9 @@ class Containment:
         fatal = not isinstance(exc, Exception)  # SystemExit, KeyboardInterrupt: always stop
         if fatal or policy.on_error not in (ON_ERROR_DEACTIVATE, ON_ERROR_RESTART):
             self.safe_stop(f"component {name!r} failed")
+            did = str(exc) if isinstance(exc, NonFiniteCommand) else f"update() raised {error}"
             raise ComponentError(
-                f"component {name!r}: update() raised {error} "
+                f"component {name!r}: {did} "
                 f"at iteration {failure.iteration} (t={failure.time_ns * 1e-9:.6f} s); "
                 "the loop was stopped",
                 component=name,
@@ -100,6 +107,15 @@ class Containment:
                 self._record(Fault(name, failure.iteration, error, "restarted", cause=cause))
                 return
         self._take_out(name, failure.iteration, error, policy, cause)
+
+    def _writer_of(self, topic: str, hardware: str) -> str | None:
+        """The active component of this process that writes ``topic`` (a claimed
+        command's active claimant, or a fallback in its primary's place), or None."""
+        for name, entry in self._components.entries.items():
+            if name != hardware and entry.state == ACTIVE and any(
+                    p.topic == topic for p in entry.component._rtcf_outputs.values()):
+                return name
+        return None
 
     def contain_let_overruns(self, trip: WatchdogTripped) -> bool:
         """A lane on logical execution time overran more windows than

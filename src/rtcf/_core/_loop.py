@@ -57,6 +57,9 @@ class RunResult:
     # and for how long in all (this runner's life); and each time, in this run
     deadlines: dict[str, dict[str, Any]] = field(default_factory=dict)
     deadline_events: list[DeadlineEvent] = field(default_factory=list)
+    # hardware's command inputs (component.name): what their limits clamped, per
+    # joint, and refused (this runner's life; rtcf._core._command_limits)
+    command_limits: dict[str, dict[str, Any]] = field(default_factory=dict)
 
 
 class Loop:
@@ -200,6 +203,8 @@ class Loop:
             safe_stops=list(containment.safe_stops),
             deadlines=watch.summary(),
             deadline_events=watch.events[events_before:],
+            command_limits={g.port.qualified_name: g.summary()
+                            for g in self._schedule.guards()},
         )
 
     def _idle_hook(

@@ -103,6 +103,8 @@ class Runner:
             self.state,
             self._notices,
         )
+        # the totals of the hardware's command limits (a worker shares their cells)
+        self.command_counters = self._schedule.commands
         # inputs with a deadline, watched at each iteration boundary (docs/runner.md)
         self.deadlines = DeadlineWatch(
             self.state, self._components, self._containment, self._notices

@@ -16,6 +16,8 @@ from collections.abc import Callable
 from typing import Any
 
 from ._clock import Clock
+from ._command_limits import CommandGuard, Counters, Guarded
+from ._component import Component
 from ._components import Components
 from ._executor import Executor
 from ._lanes import LET_OUT, SEND, UPDATE, Lane, LocalLet, Member, Step, lane_of, lanes_of
@@ -58,6 +60,9 @@ class Schedule:
         self.labels: list[str] = []  # timing columns: components, and lanes' handovers
         self.rates: list[tuple[int, int]] = []  # (every, phase) per scheduled component
         self._stubs: dict[str, OutputPort[Any]] = {}  # foreign producers' topics
+        # the totals of the command inputs' guards (a worker shares them with its
+        # supervisor)
+        self.commands = Counters()
         self._let_slots: dict[tuple[str, str], Slot] = {}  # in-process LET (lane, topic)
         self._visible: dict[str, Slot] = {}  # LET outputs as the other lanes see them
 
@@ -197,10 +202,10 @@ class Schedule:
             for lane in let.values():  # released first, on what the step above took
                 for n in lane.members:
                     if members[n].scheduled:
-                        add(n, loaded[n].component.update, spread_rates[n], False)
+                        add(n, self._step_of(loaded[n].component), spread_rates[n], False)
             for n in graph.order:
                 if members[n].scheduled and members[n].lane not in let:
-                    add(n, loaded[n].component.update, spread_rates[n], False)
+                    add(n, self._step_of(loaded[n].component), spread_rates[n], False)
         else:
             here = lanes[self.lane]
             if here.let:
@@ -208,7 +213,7 @@ class Schedule:
             for step in self._topology.steps(self.lane, lanes, members):
                 if step.kind == UPDATE:
                     n = step.name
-                    add(n, loaded[n].component.update, spread_rates[n], False)
+                    add(n, self._step_of(loaded[n].component), spread_rates[n], False)
                 elif self.handovers is not None:
                     sent = step.kind in (SEND, LET_OUT)
                     at = outputs[step.name] if sent else self._stubs[step.name]
@@ -236,6 +241,21 @@ class Schedule:
             executor.origin_ns = previous.origin_ns
             executor.next_deadline_ns = previous.next_deadline_ns
         return executor
+
+    def _step_of(self, component: Component) -> Callable[[], object]:
+        """A component's step: its update, behind its command inputs' guards if it has
+        any (rtcf._core._command_limits)."""
+        guards = list(component._rtcf_guards.values())
+        if not guards:
+            return component.update
+        for guard in guards:
+            guard.prepare(component.period, self.commands)
+        return Guarded(component.full_name, component.update, guards)
+
+    def guards(self) -> list[CommandGuard]:
+        """Every loaded component's command input guards, in load order."""
+        return [g for e in self._components.entries.values()
+                for g in e.component._rtcf_guards.values()]
 
     def _active_flags(self) -> list[bool]:
         loaded = self._components.entries

@@ -38,6 +38,8 @@ def health(runner: str, status: LiveStatus, aggregate: TimingAggregate) -> Healt
         ("loop starts", text(status.starts)),
         ("inputs past their deadline", ", ".join(status.past_deadline) or "none"),
         ("input deadlines passed", text(status.deadline_misses)),
+        ("commands clamped to limits", text(status.commands_clamped)),
+        ("commands refused (not finite)", text(status.commands_refused)),
     ]
     values.append(("access", status.access or "open: any request on its domain"))
     for label, stats in (("jitter", summary.jitter_us), ("calc", summary.calc_us)):
@@ -51,7 +53,7 @@ def health(runner: str, status: LiveStatus, aggregate: TimingAggregate) -> Healt
     return Health(
         warn=bool(
             status.overruns or status.log_records_dropped or aggregate.dropped or status.faults
-            or status.past_deadline
+            or status.past_deadline or status.commands_refused
         ),
         name=f"rtcf: {runner}",
         message=(
@@ -60,6 +62,11 @@ def health(runner: str, status: LiveStatus, aggregate: TimingAggregate) -> Healt
             + (
                 f"past deadline: {', '.join(status.past_deadline)}, "
                 if status.past_deadline else ""
+            )
+            + (
+                f"commands clamped {status.commands_clamped}, refused "
+                f"{status.commands_refused}, "
+                if status.commands_clamped or status.commands_refused else ""
             )
             + f"jitter p99.9 {status.jitter_p999_us:.1f} us, "
             + f"calc p99.9 {status.calc_p999_us:.1f} us"

@@ -400,6 +400,7 @@ class LaneWorkers(Generic[W]):
                 continue
             main.faults += result.faults
             main.deadlines.update(result.deadlines)
+            main.command_limits.update(result.command_limits)
             main.deadline_events += result.deadline_events
             main.safe_stops += result.safe_stops
             if result.stopped_by == "abort" and main.stopped_by != "abort":

@@ -9,7 +9,7 @@ status line, every DIAGNOSTICS_EVERY_S to the bridge) and counts the loop's star
 from __future__ import annotations
 
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 from .._core._timing import TimingAggregate
@@ -38,6 +38,9 @@ class LiveStatus:
     # inputs past their deadline now (component.input), and how many times any passed it
     past_deadline: tuple[str, ...] = ()
     deadline_misses: int = 0
+    # commands the hardware's limits clamped, and those they refused (never passed on)
+    commands_clamped: int = 0
+    commands_refused: int = 0
 
 
 class LiveReport:
@@ -78,6 +81,7 @@ class LiveReport:
     def status(
         self, aggregate: TimingAggregate, *, log_records_dropped: int, faults: int, access: str,
         deadlines: tuple[tuple[str, ...], int] = ((), 0),
+        commands: Sequence[int] = (0, 0),
     ) -> LiveStatus:
         started = self.started_at if self.started_at is not None else time.monotonic()
         return LiveStatus(
@@ -93,4 +97,6 @@ class LiveReport:
             starts=self.starts,
             past_deadline=deadlines[0],
             deadline_misses=deadlines[1],
+            commands_clamped=commands[0],
+            commands_refused=commands[1],
         )

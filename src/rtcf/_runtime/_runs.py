@@ -279,6 +279,7 @@ class RunChannels:
                     for t, n in sorted(done.get("inputs", {}).items())},
             deadlines=done.get("deadlines", {}),
             deadline_events=[DeadlineEvent(**e) for e in done.get("deadline_events", [])],
+            command_limits=done.get("command_limits", {}),
         )
 
     def _port_channels(

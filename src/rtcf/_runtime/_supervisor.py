@@ -240,6 +240,8 @@ class WorkerRunner:
             faults=self._process.faults,
             access=self.admission.access,
             deadlines=self.past_deadline(),
+            commands=[sum(c) for c in zip(*(w._process.command_words for w in (
+                self, *self._lanes.workers.values())), strict=True)],
         )
 
     def past_deadline(self) -> tuple[tuple[str, ...], int]:

@@ -61,7 +61,10 @@ CTL_FAULTS = 4  # failures a policy contained so far (the worker counts)
 # deadlines[k] is past its deadline; and how many times any passed it
 CTL_DEADLINES = 5
 CTL_DEADLINE_MISSES = 6
-CTL_WORDS = 8
+# commands the hardware's limits clamped, and those they refused (the worker's guards)
+CTL_COMMANDS_CLAMPED = 7
+CTL_COMMANDS_REFUSED = 8
+CTL_WORDS = 10
 CLOCK_MAILBOX_OFFSET = 8 * CTL_WORDS  # the /clock mailbox follows the control words
 
 _ERRORS: dict[str, type[RtcfError]] = {
@@ -197,7 +200,7 @@ class Worker:
             words[w : w + 1]
             for w in (
                 CTL_STOP, CTL_RUNNING, CTL_HEARTBEAT, CTL_FAULTS, CTL_DEADLINES,
-                CTL_DEADLINE_MISSES,
+                CTL_DEADLINE_MISSES, CTL_COMMANDS_CLAMPED, CTL_COMMANDS_REFUSED,
             )
         ]
         words.release()
@@ -238,7 +241,9 @@ class Worker:
             log_emit=emit,
             stop_flag=self.stop,
         )
-        running, _, faults, past, misses = self._cells[1:]
+        running, _, faults, past, misses, clamped, refused = self._cells[1:]
+        counters = self.runner.command_counters
+        counters.clamped, counters.refused = clamped, refused
         running[0] = -1
         self.runner.running_cell = running
         self.runner.deadlines.bits, self.runner.deadlines.misses = past, misses
@@ -524,6 +529,7 @@ class Worker:
             "safe_stops": [vars(o) for o in result.safe_stops],
             "deadlines": result.deadlines,
             "deadline_events": [e.to_dict() for e in result.deadline_events],
+            "command_limits": result.command_limits,
             "heartbeat_lost": bool(watch is not None and watch.fired),
             "handovers": link.counts() if link is not None else {},
             "missed": runner.missed_releases,

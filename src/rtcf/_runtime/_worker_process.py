@@ -32,6 +32,8 @@ from ._doorbell import Doorbell, RungMailbox
 from ._shm import Segment, outgoing, send_segments
 from ._worker import (
     CLOCK_MAILBOX_OFFSET,
+    CTL_COMMANDS_CLAMPED,
+    CTL_COMMANDS_REFUSED,
     CTL_DEADLINE_MISSES,
     CTL_DEADLINES,
     CTL_FAULTS,
@@ -268,6 +270,13 @@ class WorkerProcess:
         if self.ctl is None:
             return 0, 0
         return self.ctl[CTL_DEADLINES], self.ctl[CTL_DEADLINE_MISSES]
+
+    @property
+    def command_words(self) -> tuple[int, int]:
+        """Commands the hardware's limits clamped so far, and those they refused."""
+        if self.ctl is None:
+            return 0, 0
+        return self.ctl[CTL_COMMANDS_CLAMPED], self.ctl[CTL_COMMANDS_REFUSED]
 
     def drain_log(self, sink: Callable[[LogRecord], None]) -> None:
         if self.log_ring is not None:
