@@ -9,6 +9,7 @@ each end in one line that says what to do."""
 
 from __future__ import annotations
 
+import json
 import subprocess
 import sys
 
@@ -230,3 +231,64 @@ def test_a_recording_is_drawn_into_frames_and_a_gif(tmp_path):
     assert empty.returncode == 1
     assert empty.stderr == (f"render_arm: error: {recording} has no messages on /nothing; "
                             "record it with rtcf launch ... --record FILE.mcap\n")
+
+
+# -- what reaches the hardware (docs/hardware-limits.md) ------------------------------
+def test_a_nan_reference_never_reaches_the_motors_and_the_arm_holds_on():
+    """The bug of issue 38 at the hardware's edge: a reference with a NaN (from a
+    controller that passed one on) makes the impedance controller command NaN torques;
+    MujocoArm is given the previous torques instead, MuJoCo stays stable and the arm
+    follows the good references before and after."""
+    goal = START + np.array([0.2, 0.0, 0.0])
+
+    def reference(k, t):
+        if 300 <= k < 310:
+            return np.array([np.nan, 0.3, 0.6])
+        return START.copy() if k < 300 else goal.copy()
+
+    trace = run_components(
+        [_arm(), ComponentSpec("controller", JointImpedance,
+                               params={"stiffness": 300.0, "damping": 30.0})],
+        1200, frequency=1000.0, inputs={"/position_reference": reference},
+    )
+    q = np.array(trace.outputs["/position"])
+    assert np.isfinite(q).all()
+    assert np.isfinite(np.array(trace.outputs["/effort"])).all()
+    guard = trace.components["/hardware"]._rtcf_guards["effort_command"]
+    assert guard.nan == 10  # each NaN torque command refused, the previous one held
+    assert np.abs(q[-1] - goal).max() < 5e-3
+
+
+def test_a_launch_file_narrows_the_motors_limits_and_the_run_reports_the_clamps(tmp_path):
+    """joint_limits.joint2.max_effort in the launch file: the shoulder's torque is
+    clamped to it (gravity needs more, so it sags), counted per joint, and said at the
+    end of the run and in timing.json."""
+    launch = tmp_path / "arm_limits.launch.xml"
+    launch.write_text("""<launch>
+  <node pkg="rtcf" exec="rt_runner" name="rt_runner">
+    <param name="mode" value="no_wait"/>
+    <param name="frequency" value="1000.0"/>
+  </node>
+  <group>
+    <push-ros-namespace namespace="arm"/>
+    <node pkg="rtcf" exec="rt_launcher" name="hardware" args="rtcf_examples MujocoArm">
+      <param name="is_first" value="true"/>
+      <param name="initial_positions" value="[0.0, 0.3, 0.6]"/>
+      <param name="joint_limits.joint2.max_effort" value="2.0"/>
+    </node>
+    <node pkg="rtcf" exec="rt_launcher" name="controller" args="rtcf_examples JointImpedance"/>
+  </group>
+</launch>
+""")
+    report = tmp_path / "report"
+    done = run_rtcf("launch", launch, "--sim", "--duration", "0.5", "--report", report)
+    assert done.returncode == 0, done.stderr
+    limits = json.loads((report / "timing.json").read_text())["command_limits"]
+    effort = limits["/arm/hardware.effort_command"]
+    assert effort["topic"] == "/arm/effort_command"
+    assert effort["clamped"]["joint2"] > 400 and effort["clamped"]["joint1"] == 0
+    assert effort["refused_not_a_number"] == effort["refused_infinite"] == 0
+    assert ("limits: command input '/arm/hardware.effort_command' (/arm/effort_command, "
+            "effort): clamped joint2") in done.stderr
+    # said once a second, not every iteration
+    assert done.stderr.count("effort command clamped to its limits (joint2 ") == 1

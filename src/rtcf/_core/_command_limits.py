@@ -268,8 +268,8 @@ class CommandGuard:
                 self._which ^= 1
                 np.add(self.clamped, changed, out=self.clamped, casting="unsafe")
                 self._counters.clamped[0] += 1
-                slot.value = value = out
                 self._say(3, value)
+                slot.value = value = out
         self.last = value
         return False
 
@@ -305,8 +305,9 @@ class CommandGuard:
                 "; a fault of the component that wrote it")
             return (f"{where}: {self.interface} command refused, not finite ({', '.join(bad)})"
                     f"; the previous command is held{whose}")
-        clamped = [f"{j} to {float(v):g}" for j, v, c in
-                   zip(joints, value, self._changed, strict=True) if c]
+        out = self._buffers[self._which ^ 1]  # the clamped command (written last)
+        clamped = [f"{j} {float(v):g} to {float(o):g}" for j, v, o, c in
+                   zip(joints, value, out, self._changed, strict=True) if c]
         return f"{where}: {self.interface} command clamped to its limits ({', '.join(clamped)})"
 
     def summary(self) -> dict[str, Any]:
