@@ -153,3 +153,25 @@ def test_nothing_is_logged_per_iteration():
     assert guard.clamped.tolist() == [250, 0]
     # logged at 0 s, 1 s and 2 s; the two later records count what came between
     assert guard._unsaid[3] == 49
+
+
+def _feed(guard, value):
+    slot = guard.port._slot
+    slot.value = np.array(value, dtype=float)
+    slot.seq += 1
+    guard()
+    return slot.value.tolist()
+
+
+def test_a_restarted_hardware_takes_its_first_command_without_a_rate_limit():
+    from rtcf._core._command_limits import Counters
+
+    hw = PositionHardware()
+    hw.configure()
+    guard = hw._rtcf_guards["command"]
+    guard.prepare(0.01, Counters())  # 100 rad/s: 1 rad per period for joint a
+    assert _feed(guard, [0.0, 1.0]) == [0.0, 1.0]
+    assert _feed(guard, [-0.9, 1.0]) == pytest.approx([-0.9, 1.0])
+    assert _feed(guard, [0.9, 1.0]) == pytest.approx([0.1, 1.0])  # 1 rad from -0.9
+    guard.reset()  # what activation does: the arm may have moved while inactive
+    assert _feed(guard, [0.9, 1.0]) == pytest.approx([0.9, 1.0])

@@ -185,6 +185,8 @@ class Transitions:
             result, reason = self._hook(entry, "cleanup")
             cleanup_tried = True
         elif tid == ACTIVATE:
+            for guard in entry.component._rtcf_guards.values():
+                guard.reset()  # no last command to change from: it may have moved since
             result, reason = self._hook(entry, "start")
         elif tid == DEACTIVATE:
             result, reason = self._hook(entry, "stop")
