@@ -40,7 +40,7 @@ from typing import Any
 
 import numpy as np
 
-from ._errors import ConfigurationError
+from ._errors import ComponentError, ConfigurationError
 from ._ports import InputPort
 
 # a component (rtcf._core._component imports this module): its params, log, time_ns
@@ -391,3 +391,24 @@ def resolve_limits(component: Component, joints: Sequence[str],
         given = launch_limits(component, joint)
         out.append(lim if given is None else lim.tightened(given))
     return out
+
+
+def declare_command_input(
+    component: Component, name: str, interface: str, joints: Sequence[str],
+    limits: Mapping[str, JointLimits] | Sequence[JointLimits] | None, deadline: float | None,
+) -> InputPort[Any]:
+    """``Component.add_command_input``: the port, and its guard in the component's
+    ``_rtcf_guards`` (configured again: a new guard, with the old one's counts)."""
+    joints = [str(j) for j in joints]
+    if not joints or len(set(joints)) != len(joints):
+        raise ComponentError(
+            f"component {component.full_name!r}: command input {name!r} has joints "
+            f"{joints}; give one name per joint, each once", component=component.full_name)
+    port: InputPort[Any] = component.add_input(name, np.ndarray, deadline=deadline)
+    guard = CommandGuard(component, port, interface, joints,
+                         resolve_limits(component, joints, limits))
+    old = component._rtcf_guards.get(name)
+    if old is not None and old.port is port and old.joints == guard.joints:
+        guard.adopt(old)
+    component._rtcf_guards[name] = guard
+    return port

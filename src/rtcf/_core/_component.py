@@ -24,11 +24,9 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping, Sequence
 from typing import Any, TypeVar
 
-import numpy as np
-
 from ._action_protocol import ActionEvent, ActionRequest
 from ._actions import ActionServer, check_action
-from ._command_limits import CommandGuard, JointLimits, resolve_limits
+from ._command_limits import CommandGuard, JointLimits, declare_command_input
 from ._errors import ComponentError
 from ._faults import deadline_ns
 from ._log import ComponentLogger, LogRing, RecordSink
@@ -140,42 +138,15 @@ class Component:
         return port
 
     def add_command_input(
-        self,
-        name: str,
-        interface: str,
-        joints: Sequence[str],
-        limits: Mapping[str, JointLimits] | Sequence[JointLimits] | None = None,
-        *,
+        self, name: str, interface: str, joints: Sequence[str],
+        limits: Mapping[str, JointLimits] | Sequence[JointLimits] | None = None, *,
         deadline: float | None = None,
     ) -> InputPort[Any]:
-        """Declare an input (in ``configure``) that takes commands to hardware: one
-        float64 array per command, a value per joint of ``joints``, of ros2_control's
-        command interface ``interface`` (``position``, ``velocity``, ``acceleration``,
-        ``effort``, or another name: finite values only).
-
-        Before each ``update``, a new command is checked: one that is not finite (or
-        not one float per joint) is never passed on, the previous one is held; one
-        outside ``limits`` (per joint, by name or in order; tightened by the launch
-        file's ``joint_limits.<joint>.*``) is clamped. Each is counted and reported
-        (docs/hardware-limits.md, "What reaches your hardware").
-        """
-        joints = [str(j) for j in joints]
-        if not joints or len(set(joints)) != len(joints):
-            raise ComponentError(
-                f"component {self.full_name!r}: command input {name!r} has joints {joints}; "
-                "give one name per joint, each once",
-                component=self.full_name,
-            )
-        port = self.add_input(name, np.ndarray, deadline=deadline)
-        resolved = resolve_limits(self, joints, limits)
-        old = self._rtcf_guards.get(name)
-        if old is not None and old.port is port and old.joints == tuple(joints):
-            # configured again: the same guard with its counts, and the limits of now
-            self._rtcf_guards[name] = CommandGuard(self, port, interface, joints, resolved)
-            self._rtcf_guards[name].adopt(old)
-        else:
-            self._rtcf_guards[name] = CommandGuard(self, port, interface, joints, resolved)
-        return port
+        """Declare a hardware's command input (in ``configure``): a float64 array per
+        command, a value per joint, of ros2_control's ``interface``. A new command is
+        checked before each ``update``: a non-finite one is never passed on, one outside
+        ``limits`` is clamped (docs/hardware-limits.md)."""
+        return declare_command_input(self, name, interface, joints, limits, deadline)
 
     def add_action_server(
         self, name: str, action_type: type, *, max_goals: int = 1
