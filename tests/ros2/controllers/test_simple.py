@@ -188,8 +188,8 @@ def test_a_command_that_is_not_finite_is_refused_and_nothing_is_written_before_t
                                inputs={"/forward/commands": fed})
     assert trace.outputs["/position_command"][0] is None
     assert trace.outputs["/position_command"][1].tolist() == [1.0, 2.0, 3.0]
-    assert _records(caplog, "is not finite") == [
-        "/forward/commands refused: a value is not finite ([1.0, nan, 3.0]); the last "
+    assert _records(caplog, "not finite") == [
+        "/forward/commands refused: position of j2 is nan (not finite); the last "
         "command stays"]
     # interface_name is the class's: velocity in the parameters is named and ignored
     assert _records(caplog, "interface_name 'velocity' ignored")
