@@ -258,6 +258,19 @@ def test_joints_and_interfaces_select_what_is_read_and_the_rest_is_nan() -> None
     assert msg.header.frame_id == "base_link"  # ros2_controllers' default
 
 
+def test_states_that_are_not_finite_are_broadcast_as_they_are() -> None:
+    # states only: nothing to refuse, and nothing to crash on
+    q = [np.array([math.nan, 1.0]), np.array([math.inf, -math.inf])]
+    trace = run_components([_jsb(joints=["a", "b"])], 2, inputs={
+        "/position": q, "/velocity": np.array([math.nan, math.nan])})
+    first, last = trace.outputs["/joint_states"]
+    assert math.isnan(first.position[0]) and first.position[1] == 1.0
+    assert list(last.position) == [math.inf, -math.inf]
+    assert all(math.isnan(v) for v in last.velocity)
+    dynamic = trace.last("/dynamic_joint_states")
+    assert dynamic.interface_values[1].values[0] == -math.inf
+
+
 def test_without_joints_the_first_array_names_them() -> None:
     trace = run_components([_jsb()], 1, inputs={"/position": np.array([1.0, 2.0])})
     assert list(trace.last("/joint_states").name) == ["joint1", "joint2"]
@@ -352,6 +365,38 @@ def test_pid_holds_where_it_starts_until_a_reference_and_refuses_a_wrong_one(
     assert _efforts(trace) == pytest.approx([0.0, 0.0, 10.0 * 0.2])
     assert _records(caplog, "0 names, 0 values and 0 values_dot for 1 dofs (j)")
     assert _records(caplog, "dof 'other' is not one of j")
+
+
+def test_pid_refuses_an_infinite_reference_and_keeps_the_last_good_one(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    fed = [_reference([0.7]), _reference([math.inf]), _reference([0.9], [-math.inf], ["j"]),
+           _reference([math.nan])]  # NaN: "leave it", ros2_controllers' convention
+    with caplog.at_level(logging.WARNING):
+        trace = run_components(
+            [_pid({"p": 10.0}, ("position", "velocity"))], 4, frequency=1 / DT,
+            inputs={"/position": np.array([0.5]), "/velocity": np.array([0.0]),
+                    "/pid/reference": fed})
+    assert _efforts(trace) == pytest.approx([10.0 * 0.2] * 4)  # 0.7 all along
+    assert trace.components["/pid"].refused_messages == {
+        "~/reference": 2, "position": 0, "velocity": 0}
+    assert _records(caplog, "not finite") == [
+        "/pid/reference refused: the value of j is inf (not finite); the last reference "
+        "stays"]  # the second within the second: counted, not said
+
+
+def test_pid_ignores_a_state_that_is_not_finite_and_keeps_the_last_good_one(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    positions = [0.5, math.nan, 0.6, math.inf]
+    with caplog.at_level(logging.WARNING):
+        trace = _run_pid(_pid({"p": 10.0}), positions, _reference([0.7]))
+    # the NaN and inf samples are refused: the last good position stands in for them
+    assert _efforts(trace) == pytest.approx([2.0, 2.0, 1.0, 1.0])
+    assert all(math.isfinite(e) for e in _efforts(trace))
+    assert trace.components["/pid"].refused_messages["position"] == 2
+    assert _records(caplog, "not finite") == [
+        "/position ignored: the value of j is nan (not finite); the last ones stay"]
 
 
 def test_pid_gains_that_control_toolbox_refuses_are_configuration_errors() -> None:
