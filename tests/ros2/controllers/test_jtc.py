@@ -388,3 +388,24 @@ def test_a_command_that_is_not_finite_is_never_written_and_a_running_goal_aborts
     lines = [r.getMessage() for r in caplog.records if "not written" in r.getMessage()]
     assert lines == ["effort_command not written: the command [nan nan] is not finite; the "
                      "last command stays, holding position"]
+
+
+@pytest.mark.parametrize("file", ["arm.launch", "arm.launch.xml"])
+@pytest.mark.parametrize(("position", "why"), [
+    (NAN, "point 0 position of joint2 is nan (not finite)"),
+    (1e300, "point 0 position of joint2 is 1e+300, outside its limits [-2.0, 2.0] "
+            "(joint_limits.joint2)"),
+])
+def test_the_arm_example_rejects_a_goal_the_arm_cannot_take(
+    file: str, position: float, why: str, caplog: pytest.LogCaptureFixture,
+) -> None:
+    # issue 38's report: such a goal was accepted and MuJoCo went unstable
+    goal = _goal(_trajectory(["joint1", "joint2", "joint3"], (1.0, [0.0, position, 0.6])))
+    trace = run_launch(f"rtcf_examples {file}", 300, args={"ros2_controllers": "true"},
+                       actions={ARM_ACTION: {100: goal}})
+    assert trace.actions[ARM_ACTION].goals[goal.id].accepted is False
+    assert f"goal 1 rejected: {why}" in caplog.text
+    for topic in ("/arm/position_reference", "/arm/position"):
+        assert all(v is None or np.isfinite(v).all() for v in trace.outputs[topic])
+    assert trace.outputs["/arm/position"][-1].tolist() == pytest.approx([0.0, 0.3, 0.6],
+                                                                         abs=1e-3)
