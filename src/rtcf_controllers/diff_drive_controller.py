@@ -214,6 +214,7 @@ class DiffDriveController(rtcf.Component):
                 self.refused_messages["~/cmd_vel"])
             return
         if self.timeout_ns and now - stamp_ns >= self.timeout_ns:
+            self.refused_messages["~/cmd_vel"] += 1
             self.log.warning(
                 "ignoring a cmd_vel stamped %.3f s ago, older than cmd_vel_timeout %.3f s",
                 (now - stamp_ns) / _NS, self.timeout_ns / _NS,

@@ -157,6 +157,7 @@ class PidController(rtcf.Component):
             if values is None:
                 continue
             if len(values) != n:
+                self.refused_messages[port.name] += 1
                 self.refused.error(
                     "%s has %d values for %d dofs (%s): ignored, the last ones stay",
                     port.topic, len(values), n, ", ".join(self.state_dofs))
@@ -244,6 +245,7 @@ class PidController(rtcf.Component):
         names, values, dots = msg.dof_names, msg.values, msg.values_dot
         n = len(self.dofs)
         if len(values) != n or (names and len(names) != n) or (dots and len(dots) != n):
+            self.refused_messages["~/reference"] += 1
             self.refused.error(
                 "%s refused: %d names, %d values and %d values_dot for %d dofs (%s)",
                 self.reference_port.topic, len(names), len(values), len(dots), n,
@@ -252,6 +254,7 @@ class PidController(rtcf.Component):
         if names:
             order = [self.index.get(name, -1) for name in names]
             if -1 in order:
+                self.refused_messages["~/reference"] += 1
                 self.unknown.error(
                     "%s refused: dof %r is not one of %s", self.reference_port.topic,
                     names[order.index(-1)], ", ".join(self.state_dofs))
@@ -291,6 +294,7 @@ class PidController(rtcf.Component):
         elif dots and len(dots) != n:
             problem = f"{len(dots)} values_dot"
         if problem is not None:
+            self.refused_messages["~/measured_state"] += 1
             self.refused.error(
                 "%s refused: %s for %d dofs (%s)", self.measured_port.topic, problem, n,  # type: ignore[union-attr]
                 ", ".join(self.state_dofs))

@@ -107,6 +107,7 @@ def test_a_command_older_than_the_timeout_is_ignored(caplog):
     trace = run_components([spec], 40, frequency=100.0, inputs={name + "/cmd_vel": commands})
     assert {s for s in wheel_speeds(trace) if s is not None} == {(0.0, 0.0)}
     assert "ignoring a cmd_vel stamped 0.250 s ago" in caplog.text
+    assert trace.components["/diff_drive_controller"].refused_messages == {"~/cmd_vel": 10}
 
 
 @pytest.mark.parametrize(("linear", "angular", "field"), [

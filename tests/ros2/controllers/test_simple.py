@@ -237,6 +237,8 @@ def test_joint_states_carry_the_joints_values_names_stamp_and_frame_id(
     assert last.header.frame_id == "base"
     assert (last.header.stamp.sec, last.header.stamp.nanosec) == (0, 20_000_000)
     assert _records(caplog, "has 3 values for 2 joints (shoulder, elbow)")
+    assert trace.components["/jsb"].refused_messages == {
+        "position": 1, "velocity": 0, "effort": 0}
     dynamic = trace.last("/dynamic_joint_states")
     assert list(dynamic.joint_names) == ["shoulder", "elbow", "finger"]
     assert [list(v.interface_names) for v in dynamic.interface_values] == [
@@ -365,6 +367,7 @@ def test_pid_holds_where_it_starts_until_a_reference_and_refuses_a_wrong_one(
     assert _efforts(trace) == pytest.approx([0.0, 0.0, 10.0 * 0.2])
     assert _records(caplog, "0 names, 0 values and 0 values_dot for 1 dofs (j)")
     assert _records(caplog, "dof 'other' is not one of j")
+    assert trace.components["/pid"].refused_messages == {"~/reference": 2, "position": 0}
 
 
 def test_pid_refuses_an_infinite_reference_and_keeps_the_last_good_one(
