@@ -115,9 +115,12 @@ class Checker:
         self._checked = np.zeros((3, joints), dtype=bool)
 
     def violation(self, error: np.ndarray, tolerance: np.ndarray) -> int:
-        """The first joint whose error is outside a (checked) tolerance, or -1."""
+        """The first joint whose error is outside a (checked) tolerance, or -1. An
+        error that is NaN (a state that is) is outside: an unknown state is not
+        within any tolerance."""
         np.abs(error, out=self._abs)
-        np.greater(self._abs, tolerance, out=self._out)
+        np.less_equal(self._abs, tolerance, out=self._out)
+        np.logical_not(self._out, out=self._out)
         np.greater(tolerance, 0.0, out=self._checked)
         self._out &= self._checked
         if not self._out.any():
@@ -130,6 +133,6 @@ class Checker:
         parts = [
             f"{quantity} error {error[row, joint]:.4g} > {tolerance[row, joint]:.4g}"
             for row, quantity in enumerate(ROWS)
-            if tolerance[row, joint] > 0.0 and abs(error[row, joint]) > tolerance[row, joint]
+            if tolerance[row, joint] > 0.0 and not abs(error[row, joint]) <= tolerance[row, joint]
         ]
         return f"joint {name}: " + ", ".join(parts)

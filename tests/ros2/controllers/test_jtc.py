@@ -409,3 +409,21 @@ def test_the_arm_example_rejects_a_goal_the_arm_cannot_take(
         assert all(v is None or np.isfinite(v).all() for v in trace.outputs[topic])
     assert trace.outputs["/arm/position"][-1].tolist() == pytest.approx([0.0, 0.3, 0.6],
                                                                          abs=1e-3)
+
+
+def test_a_state_that_turns_nan_violates_a_checked_tolerance_and_nothing_nan_is_written(
+) -> None:
+    # NaN compares false: unchecked, a NaN error would pass every tolerance (the goal
+    # would "succeed" with the arm's state unknown)
+    goal = _goal(_trajectory(JOINTS, (0.5, [1.0, 1.0])), path={"a": 0.05})
+    specs = [rtcf.ComponentSpec("arm", GoesNan, params={"initial_positions": [0.0, 0.0],
+                                                        "nan_s": 0.2}, is_first=True),
+             rtcf.ComponentSpec("jtc", JointTrajectoryController, params={
+                 "joints": JOINTS, "command_interfaces": ["position"],
+                 "state_interfaces": ["position", "velocity"], **GOAL_TOLERANCE})]
+    trace = run_components(specs, 80, frequency=HZ, actions={ACTION: {0: goal}})
+    record = _goals(trace)[goal.id]
+    assert record.states[-1] == (20, GoalStatus.ABORTED)
+    assert record.result.error_code == Result.PATH_TOLERANCE_VIOLATED
+    assert _all_finite(trace)  # the hold where the joints read NaN is never written
+    assert trace.components["/jtc"].refused_samples == 59

@@ -91,3 +91,13 @@ def test_the_checker_finds_the_first_joint_out_of_a_checked_tolerance() -> None:
     error = np.array([[0.05, 0.0], [0.0, -0.6], [0.0, 0.0]])
     assert checker.violation(error, tolerance) == 1
     assert "velocity error -0.6 > 0.5" in Checker.describe(error, tolerance, 1, "b")
+
+
+def test_an_error_that_is_nan_is_outside_a_checked_tolerance_only() -> None:
+    checker = Checker(2)
+    tolerance = np.array([[0.0, 0.1], [0.0, 0.0], [0.0, 0.0]])
+    nan = float("nan")
+    assert checker.violation(np.array([[nan, 0.0], [0.0, 0.0], [0.0, 0.0]]), tolerance) == -1
+    error = np.array([[0.0, nan], [0.0, 0.0], [0.0, 0.0]])
+    assert checker.violation(error, tolerance) == 1  # an unknown state is not within it
+    assert Checker.describe(error, tolerance, 1, "b") == "joint b: position error nan > 0.1"
