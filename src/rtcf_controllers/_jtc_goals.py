@@ -68,6 +68,7 @@ class Goals:
         goal = request.goal
         problem = controller.follow(goal.trajectory, t)
         if problem is not None:
+            controller.refused_messages["~/follow_joint_trajectory"] += 1
             controller.log.error("goal %d rejected: %s", request.goal_id, problem)
             action.reject(request)
             return

@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 
+from ._limits import JointLimits, read_limits
 from ._params import ControllerParameters
 from ._pid import Gains, Pid
 from ._tolerances import Tolerances, from_parameters
@@ -108,6 +109,7 @@ class Settings:
     pid: Pids | None  # for a lone velocity or effort command
     velocity_error: bool  # which errors ros2_controllers computes (the rest stay 0)
     acceleration_error: bool
+    limits: JointLimits  # joint_limits.<joint>.*: positions outside are refused
 
 
 def read_settings(component: Any) -> Settings:
@@ -155,4 +157,5 @@ def read_settings(component: Any) -> Settings:
         pid=Pids(p, joints) if use_pid else None,
         velocity_error="velocity" in states and bool({"velocity", "effort"} & commands),
         acceleration_error="acceleration" in states and "acceleration" in commands,
+        limits=read_limits(p, joints),
     )

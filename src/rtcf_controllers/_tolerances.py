@@ -9,7 +9,9 @@ to get inside the goal tolerance (0: as long as they need). A tolerance of 0 is 
 checked. An action goal's ``path_tolerance``, ``goal_tolerance`` and
 ``goal_time_tolerance`` override them joint by joint as control_msgs/JointTolerance
 says: 0 keeps the default, -1 erases it (unchecked), any other negative value is
-illegal (the whole goal then runs on the defaults, and the caller logs why).
+illegal (the whole goal then runs on the defaults, and the caller logs why). A value
+that is not finite is illegal too: ros2_controllers keeps the default for a NaN
+without a word; here the goal runs on the defaults and the log says which value.
 
 Tolerances are 3 x joints arrays (rows: position, velocity, acceleration), so that the
 check in the loop is a few numpy calls on arrays laid out when a goal arrives.
@@ -18,6 +20,7 @@ check in the loop is a few numpy calls on arrays laid out when a goal arrives.
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections.abc import Sequence
 from typing import Any
 
@@ -58,6 +61,8 @@ def from_parameters(params: ControllerParameters, joints: Sequence[str]) -> Tole
 
 
 def _resolve(default: float, given: float) -> float:
+    if not math.isfinite(given):  # NaN would keep the default, inf disable the check
+        raise ValueError(given)
     if given > 0.0:
         return given
     if abs(given - _ERASE) < np.finfo(np.float32).eps:
@@ -73,6 +78,10 @@ def for_goal(
     """The tolerances of a ``FollowJointTrajectory`` goal, and why it runs on the
     defaults instead (an unknown joint, an illegal value) or None."""
     active = defaults.copy()
+    duration = goal.goal_time_tolerance
+    nanosec = getattr(duration, "nanosec", getattr(duration, "nsecs", 0))
+    if not 0 <= nanosec < 1_000_000_000:  # a negative one is _resolve's to judge
+        return defaults, f"goal_time_tolerance's nanosec {nanosec} is out of [0, 1e9)"
     goal_time = duration_s(goal.goal_time_tolerance)
     try:
         active.goal_time = _resolve(defaults.goal_time, goal_time)
@@ -91,6 +100,8 @@ def for_goal(
                     table[row, j] = _resolve(fallback[row, j], value)
                 except ValueError:
                     why = f"{field} of {tolerance.name!r}: {quantity} {value:g} is illegal"
+                    if not math.isfinite(value):
+                        why += " (not finite)"
                     return defaults, why
     return active, None
 
@@ -104,9 +115,12 @@ class Checker:
         self._checked = np.zeros((3, joints), dtype=bool)
 
     def violation(self, error: np.ndarray, tolerance: np.ndarray) -> int:
-        """The first joint whose error is outside a (checked) tolerance, or -1."""
+        """The first joint whose error is outside a (checked) tolerance, or -1. An
+        error that is NaN (a state that is) is outside: an unknown state is not
+        within any tolerance."""
         np.abs(error, out=self._abs)
-        np.greater(self._abs, tolerance, out=self._out)
+        np.less_equal(self._abs, tolerance, out=self._out)
+        np.logical_not(self._out, out=self._out)
         np.greater(tolerance, 0.0, out=self._checked)
         self._out &= self._checked
         if not self._out.any():
@@ -119,6 +133,6 @@ class Checker:
         parts = [
             f"{quantity} error {error[row, joint]:.4g} > {tolerance[row, joint]:.4g}"
             for row, quantity in enumerate(ROWS)
-            if tolerance[row, joint] > 0.0 and abs(error[row, joint]) > tolerance[row, joint]
+            if tolerance[row, joint] > 0.0 and not abs(error[row, joint]) <= tolerance[row, joint]
         ]
         return f"joint {name}: " + ", ".join(parts)

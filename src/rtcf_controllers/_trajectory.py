@@ -24,10 +24,14 @@ fields), so this module imports no ROS package.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Callable, Sequence
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import numpy as np
+
+if TYPE_CHECKING:
+    from ._limits import JointLimits
 
 ORDER = 6  # coefficients of a quintic, the highest degree a segment has
 
@@ -38,6 +42,25 @@ def duration_s(duration: Any) -> float:
     if sec is None:
         return float(duration.secs) + 1e-9 * float(duration.nsecs)
     return float(sec) + 1e-9 * float(duration.nanosec)
+
+
+def duration_problem(duration: Any) -> str | None:
+    """Why a ``time_from_start`` is no duration a point can have (negative, or its
+    nanoseconds out of [0, 1e9)), or None."""
+    sec = getattr(duration, "sec", None)
+    nsec = duration.nsecs if sec is None else duration.nanosec
+    if sec is None:
+        sec = duration.secs
+    if sec < 0:
+        return f"{sec} s {nsec} ns (negative)"
+    if not 0 <= nsec < 1_000_000_000:
+        return f"{sec} s {nsec} ns (nanoseconds out of [0, 1e9))"
+    return None
+
+
+# a point's fields and what one of their values is called in a refusal
+_FIELDS = (("positions", "position"), ("velocities", "velocity"),
+           ("accelerations", "acceleration"), ("effort", "effort"))
 
 
 def _spline(
@@ -107,6 +130,7 @@ class Trajectory:
         self.start = start
         self.interpolate = interpolate
         self.begun = False
+        self.sampled = False  # whether sample() has advanced since begin()
         self.ends = np.zeros(n)  # each point's time on the controller's clock
         self._cursor = 0
 
@@ -133,6 +157,7 @@ class Trajectory:
         self.start = start
         self.ends = start + self.times
         self.begun = True
+        self.sampled = False
         self._cursor = 0
         # the segment before the first point, from the state at the start
         p, v, a = self.positions, self.velocities, self.accelerations
@@ -142,26 +167,45 @@ class Trajectory:
         first = max(float(self.ends[0]) - now, 0.0)
         self._starts = [now, *self.ends[:-1].tolist()]
         self._spans = [first, *np.diff(self.ends).tolist()]
-        coefficients = [
-            _spline(np.asarray(position, dtype=float), v_now, a_now,
-                    p[0], None if v is None else v[0], None if a is None else a[0], first)
-        ]
-        for k in range(1, self.n):
-            coefficients.append(_spline(
-                p[k - 1], None if v is None else v[k - 1], None if a is None else a[k - 1],
-                p[k], None if v is None else v[k], None if a is None else a[k],
-                self._spans[k],
-            ))
-        self._position = [np.ascontiguousarray(c.T) for c in coefficients]  # joints x ORDER
-        self._velocity = [np.ascontiguousarray((_DERIVE @ c).T) for c in coefficients]
-        self._acceleration = [np.ascontiguousarray((_DERIVE @ _DERIVE @ c).T)
-                              for c in coefficients]
+        # huge positions in a short time overflow: not_finite() says where, quietly
+        with np.errstate(over="ignore", invalid="ignore"):
+            coefficients = [
+                _spline(np.asarray(position, dtype=float), v_now, a_now,
+                        p[0], None if v is None else v[0], None if a is None else a[0], first)
+            ]
+            for k in range(1, self.n):
+                coefficients.append(_spline(
+                    p[k - 1], None if v is None else v[k - 1], None if a is None else a[k - 1],
+                    p[k], None if v is None else v[k], None if a is None else a[k],
+                    self._spans[k],
+                ))
+            self._position = [np.ascontiguousarray(c.T) for c in coefficients]  # joints x 6
+            self._velocity = [np.ascontiguousarray((_DERIVE @ c).T) for c in coefficients]
+            self._acceleration = [np.ascontiguousarray((_DERIVE @ _DERIVE @ c).T)
+                                  for c in coefficients]
         self._before = np.array(position, dtype=float)
         self._before_v = np.zeros(self.dof) if velocity is None else np.array(velocity, float)
         self._powers = np.zeros(ORDER)
         e = self.effort
         # the state at the start has no effort of its own (ros2_controllers: zero)
         self._effort_start = [np.zeros(self.dof), *([] if e is None else list(e[:-1]))]
+
+    def not_finite(self) -> tuple[int, int, float, float] | None:
+        """After :meth:`begin`: where a sample could be other than finite, as (point,
+        joint index, the position the spline to it starts from, its span in seconds):
+        a spline whose coefficients overflow (a position too large for its time), or
+        one that starts from a state that is not finite. None if every sample is
+        finite. Once per trajectory, never in :meth:`sample`."""
+        if not self.interpolate:
+            return None  # the samples are the points (checked finite) and the state
+        for k in range(self.n):
+            for table in (self._position[k], self._velocity[k], self._acceleration[k]):
+                bad = ~np.isfinite(table).all(axis=1)
+                if bad.any():
+                    j = int(bad.argmax())
+                    before = self._before[j] if k == 0 else self.positions[k - 1, j]
+                    return k, j, float(before), float(self._spans[k])
+        return None
 
     def segment(self, t: float) -> int:
         """The index of the point that a sample at ``t`` heads to: 0 before the first
@@ -190,6 +234,7 @@ class Trajectory:
         k = self.segment(t)
         if advance:
             self._cursor = k
+            self.sampled = True
         if k >= self.n:  # played out: hold the last point
             position[:] = self.positions[-1]
             _fill(velocity, self.velocities)
@@ -268,10 +313,14 @@ def check(
     allow_partial: bool,
     allow_nonzero_end_velocity: bool,
     allow_effort: bool,
+    limits: JointLimits | None = None,
 ) -> str | None:
     """Why ``message`` (a ``trajectory_msgs/JointTrajectory``) cannot be followed by a
     controller of ``joints``, or None: ros2_controllers' ``validate_trajectory_msg``
-    (its header stamp's "ends in the past" is :func:`from_message`'s caller's)."""
+    (its header stamp's "ends in the past" is :func:`from_message`'s caller's), and
+    rtcf's own: every value finite, every ``time_from_start`` a duration >= 0, and
+    every position inside ``limits`` (the joints' position limits) where given.
+    The problem names the point, the joint and the value."""
     names = list(message.joint_names)
     if not allow_partial and len(names) != len(joints):
         return (f"its joint_names {names} are not the controller's joints {list(joints)} "
@@ -286,13 +335,14 @@ def check(
         return f"joint(s) {unknown} are not the controller's joints {list(joints)}"
     if len(set(names)) != len(names):
         return f"its joint_names {names} repeat a name"
-    if not allow_nonzero_end_velocity:
-        for name, v in zip(names, points[-1].velocities, strict=False):
-            if abs(v) > np.finfo(np.float32).eps:
-                return (f"the last point's velocity of {name} is {v}, not 0 "
-                        "(allow_nonzero_velocity_at_trajectory_end is false)")
+    limited = [] if limits is None else [
+        (c, name) for c, name in enumerate(names) if name in limits.position]
+    isfinite = math.isfinite
     previous = -1.0
     for i, point in enumerate(points):
+        wrong_time = duration_problem(point.time_from_start)
+        if wrong_time is not None:
+            return f"point {i} time_from_start is {wrong_time}"
         t = duration_s(point.time_from_start)
         if i > 0 and t <= previous:
             return (f"time_from_start of points {i - 1} and {i} ({previous:g} s, {t:g} s) "
@@ -308,6 +358,21 @@ def check(
                     "command interface takes")
         if len(point.effort) and len(point.effort) != len(names):
             return f"point {i} has {len(point.effort)} effort for {len(names)} joints"
+        for field, kind in _FIELDS:
+            values = getattr(point, field)
+            if not all(map(isfinite, values)):  # one pass in C; the culprit only if needed
+                c = next(c for c, v in enumerate(values) if not isfinite(v))
+                return f"point {i} {kind} of {names[c]} is {float(values[c])!r} (not finite)"
+        for c, name in limited:
+            assert limits is not None
+            outside = limits.outside(name, "position", float(point.positions[c]))
+            if outside is not None:
+                return f"point {i} position of {name} is {outside}"
+    if not allow_nonzero_end_velocity:
+        for name, v in zip(names, points[-1].velocities, strict=False):
+            if abs(v) > np.finfo(np.float32).eps:
+                return (f"the last point's velocity of {name} is {v}, not 0 "
+                        "(allow_nonzero_velocity_at_trajectory_end is false)")
     return None
 
 

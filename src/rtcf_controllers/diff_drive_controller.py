@@ -19,6 +19,7 @@ from ._odometry import Odometry
 from ._odometry_publisher import OdometryPublisher, frames
 from ._params import ControllerParameters
 from ._speed_limiter import speed_limiter
+from ._throttle import Throttled
 
 _NS = 1_000_000_000
 _THROTTLE_NS = _NS  # ros2_controllers' warnings in the loop: at most one a second
@@ -59,6 +60,10 @@ class DiffDriveController(rtcf.Component):
     (nav_msgs/Odometry) and ``/tf`` (tf2_msgs/TFMessage, ``enable_odom_tf``) out at
     ``publish_rate``; ``~/cmd_vel_out`` (the limited command,
     ``publish_limited_velocity``).
+
+    A ``~/cmd_vel`` whose ``linear.x`` or ``angular.z`` (the fields it uses) is not
+    finite is ignored: counted in ``refused_messages``, logged at most once a second,
+    and ``cmd_vel_timeout`` applies as if it had not arrived.
     """
 
     ros2_control_type = "diff_drive_controller/DiffDriveController"
@@ -117,6 +122,8 @@ class DiffDriveController(rtcf.Component):
             self.add_output("~cmd_vel_out", twist) if self.publish_limited_velocity else None
         )
         twist()  # its first message loads its type support (an import): not in the loop
+        self.refused_messages = {"~/cmd_vel": 0}  # what was refused, for tests and reports
+        self.not_finite = Throttled(self)
         self.reset()
 
     def reset(self) -> None:
@@ -133,8 +140,7 @@ class DiffDriveController(rtcf.Component):
         self.last = [0.0, 0.0]  # linear, angular of the last command
         self.before_last = [0.0, 0.0]
         self.publisher.reset()  # the first update publishes
-        self.warned_ns = {"timeout": -_THROTTLE_NS, "nan": -_THROTTLE_NS}
-        self.received = False  # a cmd_vel since: its NaN is worth a warning
+        self.warned_ns = {"timeout": -_THROTTLE_NS}
 
     def start(self) -> None:
         self.reset_buffers()
@@ -196,28 +202,37 @@ class DiffDriveController(rtcf.Component):
         stamp_ns = stamp.sec * _NS + stamp.nanosec
         if stamp_ns == 0:
             stamp_ns = now
+        linear, angular = message.twist.linear.x, message.twist.angular.z
+        if not (math.isfinite(linear) and math.isfinite(angular)):
+            # ignored whole, its stamp too: a stream of them must not hold off the timeout
+            self.refused_messages["~/cmd_vel"] += 1
+            self.not_finite.warning(
+                "~/cmd_vel ignored: %s is %r (not finite), %d refused so far; "
+                "cmd_vel_timeout applies as if it had not arrived",
+                "angular.z" if math.isfinite(linear) else "linear.x",
+                angular if math.isfinite(linear) else linear,
+                self.refused_messages["~/cmd_vel"])
+            return
         if self.timeout_ns and now - stamp_ns >= self.timeout_ns:
+            self.refused_messages["~/cmd_vel"] += 1
             self.log.warning(
                 "ignoring a cmd_vel stamped %.3f s ago, older than cmd_vel_timeout %.3f s",
                 (now - stamp_ns) / _NS, self.timeout_ns / _NS,
             )
             return
-        self.command_linear = message.twist.linear.x
-        self.command_angular = message.twist.angular.z
+        self.command_linear = linear
+        self.command_angular = angular
         self.command_stamp_ns = stamp_ns
-        self.received = True
 
     def _update_reference(self, now: int) -> None:
         """What the wheels follow: the command, or zero once it is older than
-        cmd_vel_timeout (braking); a command with NaN leaves the reference as it was."""
+        cmd_vel_timeout (braking); before the first command, nothing (NaN)."""
         if self.timeout_ns and now - self.command_stamp_ns > self.timeout_ns:
             self.reference_linear = self.reference_angular = 0.0
             self._throttled("timeout", now, "velocity command timed out: braking")
-        elif math.isfinite(self.command_linear) and math.isfinite(self.command_angular):
+        elif math.isfinite(self.command_linear):  # finite both, or NaN both (none yet)
             self.reference_linear = self.command_linear
             self.reference_angular = self.command_angular
-        elif self.received:  # else: no command yet, which is no news
-            self._throttled("nan", now, "cmd_vel holds NaN: the reference is not updated")
 
     def _update_odometry(self, time: float, dt: float) -> bool:
         assert self.feedback is not None
@@ -232,8 +247,8 @@ class DiffDriveController(rtcf.Component):
             )
         left = float(wheels[0]) if n == 1 else float(wheels[:n].mean())
         right = float(wheels[n]) if n == 1 else float(wheels[n:].mean())
-        if math.isnan(left) or math.isnan(right):
-            raise ValueError(f"{self.feedback.topic} holds NaN: {wheels}")
+        if not (math.isfinite(left) and math.isfinite(right)):  # ros2_controllers: ERROR
+            raise ValueError(f"{self.feedback.topic} holds a value that is not finite: {wheels}")
         if self.position_feedback:
             self.odometry.update(left, right, time)
         else:

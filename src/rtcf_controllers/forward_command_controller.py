@@ -13,6 +13,7 @@ import numpy as np
 
 import rtcf
 
+from ._limits import read_limits
 from ._message_types import message_class
 from ._params import ControllerParameters
 from ._throttle import Throttled
@@ -22,11 +23,14 @@ class ForwardCommandController(rtcf.Component):
     """Writes the last accepted ``~/commands`` to ``<interface_name>_command``, one
     value per joint in the order of ``joints``, every time it runs.
 
-    A command of the wrong length (not one value per joint) or with a value that is
-    not finite is refused: logged with what it holds (rate-limited when it repeats),
-    and the last accepted command stays. Nothing is written before the first accepted
-    command. Commands that arrive while the controller is inactive are dropped when it
-    starts, as ros2_controllers' are at activation.
+    A command of the wrong length (not one value per joint), with a value that is
+    not finite, or outside the joint's ``joint_limits.<joint>.*`` for the interface
+    (``min_position``/``max_position`` for ``position``, ``max_velocity`` for
+    ``velocity``, ``max_effort`` for ``effort``; refused, never clamped) is refused:
+    logged naming the joint and the value (rate-limited when it repeats), counted in
+    ``refused_messages``, and the last accepted command stays. Nothing is written
+    before the first accepted command. Commands that arrive while the controller is
+    inactive are dropped when it starts, as ros2_controllers' are at activation.
     """
 
     ros2_control_type = "forward_command_controller/ForwardCommandController"
@@ -53,6 +57,18 @@ class ForwardCommandController(rtcf.Component):
         self.command = self.add_output(f"{interface}_command", np.ndarray, claim=True)
         self.value: np.ndarray | None = None
         self.refused = Throttled(self)
+        self.refused_messages = {"~/commands": 0}  # what was refused, for tests and reports
+        self.limits = read_limits(p, self.joints)
+        # the interface's bounds per joint (+-inf: none), compared when a command arrives
+        self.low = np.full(len(self.joints), -np.inf)
+        self.high = np.full(len(self.joints), np.inf)
+        for j, joint in enumerate(self.joints):
+            if interface == "position" and joint in self.limits.position:
+                self.low[j], self.high[j] = self.limits.position[joint]
+            largest = {"velocity": self.limits.velocity,
+                       "effort": self.limits.effort}.get(interface, {}).get(joint)
+            if largest is not None:
+                self.low[j], self.high[j] = -largest, largest
 
     def start(self) -> None:
         self.commands.read()  # what came while inactive is not applied (ros2's reset)
@@ -69,17 +85,23 @@ class ForwardCommandController(rtcf.Component):
         data = msg.data  # type: ignore[attr-defined]
         n = len(self.joints)
         if len(data) != n:
+            self.refused_messages["~/commands"] += 1
             self.refused.error(
                 "%s refused: %d values for %d joints (%s); the last command stays",
                 self.commands.topic, len(data), n, ", ".join(self.joints),
             )
             return
         value = np.array(data, dtype=float)  # a new array per command: readers may keep it
-        if not np.isfinite(value).all():
-            self.refused.warning(
-                "%s refused: a value is not finite (%s); the last command stays",
-                self.commands.topic, value.tolist(),
-            )
+        # where a value is not finite, or outside its joint's limits
+        bad = ~(np.isfinite(value) & (value >= self.low) & (value <= self.high))
+        if bad.any():
+            j = int(bad.argmax())
+            x = float(value[j])
+            why = (f"{x!r} (not finite)" if not np.isfinite(x) else
+                   self.limits.outside(self.joints[j], self.interface_name, x))
+            self.refused_messages["~/commands"] += 1
+            self.refused.warning("%s refused: %s of %s is %s; the last command stays",
+                                 self.commands.topic, self.interface_name, self.joints[j], why)
             return
         self.value = value
 

@@ -85,6 +85,8 @@ class JointStateBroadcaster(rtcf.Component):
                     prefix + "dynamic_joint_states", self.dynamic_message
                 )
         self.bad_length = Throttled(self)
+        # arrays ignored (the wrong length), by input: for tests and reports
+        self.refused_messages = dict.fromkeys((port.name for port in self.ports), 0)
         self.names: list[str] = []
         self.n = 0
         if joints:
@@ -138,6 +140,7 @@ class JointStateBroadcaster(rtcf.Component):
             if not self.n:
                 self._name_joints([f"joint{j + 1}" for j in range(len(values))])
             if len(values) != self.n:
+                self.refused_messages[port.name] += 1
                 self.bad_length.error(
                     "%s has %d values for %d joints (%s): ignored, the last ones stay",
                     port.topic, len(values), self.n, ", ".join(self.names[: self.n]),

@@ -17,10 +17,12 @@ import numpy as np
 
 import rtcf
 
+from . import _jtc_messages as results
 from ._jtc_goals import Goals
 from ._jtc_messages import Messages
 from ._jtc_settings import read_settings
 from ._message_types import message_class
+from ._throttle import Throttled
 from ._tolerances import Checker
 from ._trajectory import Trajectory, check, duration_s, from_message, hold
 
@@ -76,10 +78,17 @@ class JointTrajectoryController(rtcf.Component):
         source = {"position": self.next[0], "acceleration": self.next[2],
                   "velocity": self.pid_command if pid else self.next[1],
                   "effort": self.pid_command if pid else self.desired_effort}
-        self.sources = [(port, source[name]) for name, port in self.command_out.items()]
+        # (port, what it is written from, a preallocated buffer for the finite check)
+        self.sources = [(port, source[name], np.zeros(n, dtype=bool))
+                        for name, port in self.command_out.items()]
         self.written: dict[str, np.ndarray] = {}  # port name -> the last command written
         self.trajectory: Trajectory | None = None
         self.holding = True
+        # what was refused, by input: read by tests and reports
+        self.refused_messages = {"~/joint_trajectory": 0, "~/follow_joint_trajectory": 0}
+        self.refused_samples = 0  # samples not written: not finite (defence in depth)
+        self.topic_refused = Throttled(self)
+        self.sample_refused = Throttled(self)
         self.log.info("joints %s, commands %s, states %s", joints, cfg.command_interfaces,
                       cfg.state_interfaces)
 
@@ -111,14 +120,16 @@ class JointTrajectoryController(rtcf.Component):
             message = self.trajectory_in.read()
             problem = None if message is None else self.follow(message, t)
             if problem is not None:
-                self.log.error("~/joint_trajectory ignored: %s", problem)
+                self.refused_messages["~/joint_trajectory"] += 1
+                self.topic_refused.error(
+                    "~/joint_trajectory ignored: %s; the current trajectory goes on", problem)
         if self.trajectory is None:
             self.hold()
         trajectory = self.trajectory
         assert trajectory is not None
-        first = not trajectory.begun
-        if first:
+        if not trajectory.begun:  # a hold (a new trajectory is begun by follow)
             self._begin(trajectory, t)
+        first = not trajectory.sampled
         desired = self.desired
         trajectory.sample(t, desired[0], desired[1], desired[2], self.desired_effort)
         nxt = self.next
@@ -145,8 +156,8 @@ class JointTrajectoryController(rtcf.Component):
             goal_joint = self.checker.violation(error, tolerances.goal)
             late = goal_joint >= 0 and tolerances.goal_time != 0.0 and since > tolerances.goal_time
 
-        if path_joint < 0 and not late:
-            self._command(error)
+        if path_joint < 0 and not late and not self._command(error):
+            return  # nothing finite to write: the last command stays
         if self.goals.goal >= 0:
             self.goals.monitor(path_joint, goal_joint, late, timed_out, before_last, since,
                                trajectory)
@@ -163,9 +174,10 @@ class JointTrajectoryController(rtcf.Component):
         if state is not None and state.due(self.iteration // self.every):
             self._publish_state(t - (trajectory.start or 0.0))
 
-    def _command(self, error: np.ndarray) -> None:
+    def _command(self, error: np.ndarray) -> bool:
         """Write the commands: the sample one period ahead (through the PID for a
-        velocity or effort interface alone)."""
+        velocity or effort interface alone). False, and nothing written, if a value
+        is not finite."""
         nxt = self.next
         pid = self.pid
         if pid is not None:
@@ -174,12 +186,33 @@ class JointTrajectoryController(rtcf.Component):
             if "effort" in self.command_out:
                 command += self.next_effort
             pid.compute(error[0], error[1], self.period, command)
-        for port, source in self.sources:
+        # defence in depth: what follow() accepted samples finite, but a state that
+        # is not finite (the hold, the PID) must not reach the hardware either
+        for port, source, finite in self.sources:
+            np.isfinite(source, out=finite)
+            if not finite.all():
+                self._not_finite(port.name, source)
+                return False
+        for port, source, _ in self.sources:
             value = source.copy()  # a port's value must not change once written
             port.write(value)
             self.written[port.name] = value
         self.last_command[:] = nxt
         self.commanded = True
+        return True
+
+    def _not_finite(self, port: str, sample: np.ndarray) -> None:
+        """A command not finite: not written (the last one stays); a running goal is
+        aborted and the joints held where they are, if that is finite."""
+        self.refused_samples += 1
+        self.sample_refused.error(
+            "%s not written: the command %s is not finite; the last command stays, "
+            "holding position", port, sample)
+        if self.goals.goal >= 0:
+            self.goals.end(self.goals.action.abort, results.INVALID_GOAL,
+                           "Aborted: the trajectory's command is not finite")
+        if not self.holding or np.isfinite(self.actual[0]).all():
+            self.hold()  # where the joints are (rare: the allocations are fine)
 
     # -- trajectories: new ones, holds -------------------------------------------------
     def _begin(self, trajectory: Trajectory, t: float) -> None:
@@ -199,10 +232,12 @@ class JointTrajectoryController(rtcf.Component):
         self.holding = True
 
     def follow(self, message: Any, t: float) -> str | None:
-        """Follow a trajectory message from now on, or say why not."""
+        """Follow a trajectory message from now on, or say why not (naming the point,
+        the joint and the value)."""
         problem = check(message, self.joints, allow_partial=self.cfg.allow_partial,
                         allow_nonzero_end_velocity=self.cfg.allow_nonzero_end,
-                        allow_effort="effort" in self.cfg.command_interfaces)
+                        allow_effort="effort" in self.cfg.command_interfaces,
+                        limits=self.cfg.limits)
         if problem is not None:
             return problem
         stamp = message.header.stamp
@@ -216,8 +251,19 @@ class JointTrajectoryController(rtcf.Component):
         # joints a partial goal leaves out hold their position command (else the state)
         commanded = self.commanded and "position" in self.command_out
         held = self.last_command[0] if commanded else self.actual[0]
-        self.trajectory = from_message(message, self.joints, lambda j: float(held[j]),
-                                       start=start, interpolate=self.cfg.interpolate)
+        trajectory = from_message(message, self.joints, lambda j: float(held[j]),
+                                  start=start, interpolate=self.cfg.interpolate)
+        # begun here, as the update that follows would begin it, so that splines whose
+        # coefficients overflow (finite positions too large for their time) are refused
+        self._begin(trajectory, t)
+        overflow = trajectory.not_finite()
+        if overflow is not None:
+            k, j, before, span = overflow
+            return (f"point {k} position of {self.joints[j]} is "
+                    f"{float(trajectory.positions[k, j])!r}: the spline to it from "
+                    f"{before!r} in {span:g} s is not finite (too far for its time, or a "
+                    "state that is not finite)")
+        self.trajectory = trajectory
         self.holding = False
         return None
 

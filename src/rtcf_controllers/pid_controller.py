@@ -43,6 +43,11 @@ class PidController(rtcf.Component):
     time it runs, each dof's reference, feedback, error, time step and output.
     With ``use_external_measured_states``, the state comes from ``~/measured_state``
     (``MultiDOFCommand``) instead of the ports.
+
+    Refused (the last good values stay; logged at most once a second per input, and
+    counted in ``refused_messages``): a reference with a value or value_dot that is
+    infinite (NaN keeps the dof's reference, ros2_controllers' convention), and a state
+    (a port's array, or a ``~/measured_state``) with a value that is not finite.
     """
 
     ros2_control_type = "pid_controller/PidController"
@@ -93,6 +98,11 @@ class PidController(rtcf.Component):
         self.refused = Throttled(self)  # each kind of problem rate-limited on its own
         self.unknown = Throttled(self)
         self.unnamed = Throttled(self)
+        # what was refused, by input (for tests and reports), each said on its own
+        inputs = ["~/reference", *(["~/measured_state"] if external else interfaces)]
+        self.refused_messages = dict.fromkeys(inputs, 0)
+        self.not_finite = {name: Throttled(self) for name in inputs}
+        self.finite = [np.zeros(n, dtype=bool) for _ in self.state_ports]  # check buffers
         self.command = [_NAN] * n  # what the command interfaces hold (NaN: never written)
         self._lay_out_state(state_dofs)
         self._clear()
@@ -147,9 +157,15 @@ class PidController(rtcf.Component):
             if values is None:
                 continue
             if len(values) != n:
+                self.refused_messages[port.name] += 1
                 self.refused.error(
                     "%s has %d values for %d dofs (%s): ignored, the last ones stay",
                     port.topic, len(values), n, ", ".join(self.state_dofs))
+                continue
+            finite = self.finite[k]
+            np.isfinite(values, out=finite)
+            if not finite.all():
+                self._refuse_state(port.name, port.topic, values, finite)
                 continue
             if k:
                 self.measured_dot = values.tolist()
@@ -217,10 +233,19 @@ class PidController(rtcf.Component):
         state.stamp_ns = self.stamp_ns
         self.controller_state.write(state)
 
+    def _refuse_state(self, name: str, topic: str, values: Any, finite: Any) -> None:
+        """A state with a value that is not finite: ignored, the last ones stay."""
+        self.refused_messages[name] += 1
+        i = int(np.argmin(finite))
+        self.not_finite[name].error(
+            "%s ignored: the value of %s is %r (not finite); the last ones stay",
+            topic, self.state_dofs[i], float(values[i]))
+
     def _take_reference(self, msg: Any) -> None:
         names, values, dots = msg.dof_names, msg.values, msg.values_dot
         n = len(self.dofs)
         if len(values) != n or (names and len(names) != n) or (dots and len(dots) != n):
+            self.refused_messages["~/reference"] += 1
             self.refused.error(
                 "%s refused: %d names, %d values and %d values_dot for %d dofs (%s)",
                 self.reference_port.topic, len(names), len(values), len(dots), n,
@@ -229,6 +254,7 @@ class PidController(rtcf.Component):
         if names:
             order = [self.index.get(name, -1) for name in names]
             if -1 in order:
+                self.refused_messages["~/reference"] += 1
                 self.unknown.error(
                     "%s refused: dof %r is not one of %s", self.reference_port.topic,
                     names[order.index(-1)], ", ".join(self.state_dofs))
@@ -238,6 +264,17 @@ class PidController(rtcf.Component):
             self.unnamed.warning(
                 "%s has no dof_names: its values are taken in the order of %s",
                 self.reference_port.topic, ", ".join(self.state_dofs))
+        for field, numbers in (("value", values), ("value_dot", dots)):
+            # infinite: refused; NaN: "leave this dof's reference" (ros2_controllers)
+            infinite = [k for k, x in enumerate(numbers) if math.isinf(x)]
+            if infinite:
+                k = infinite[0]
+                self.refused_messages["~/reference"] += 1
+                self.not_finite["~/reference"].error(
+                    "%s refused: the %s of %s is %r (not finite); the last reference stays",
+                    self.reference_port.topic, field, self.state_dofs[order[k]],
+                    float(numbers[k]))
+                return
         two = self.two and len(dots) == n
         for k, i in enumerate(order):
             value = values[k]
@@ -257,9 +294,16 @@ class PidController(rtcf.Component):
         elif dots and len(dots) != n:
             problem = f"{len(dots)} values_dot"
         if problem is not None:
+            self.refused_messages["~/measured_state"] += 1
             self.refused.error(
                 "%s refused: %s for %d dofs (%s)", self.measured_port.topic, problem, n,  # type: ignore[union-attr]
                 ", ".join(self.state_dofs))
             return
+        for numbers in (values, dots):
+            finite = np.isfinite(np.asarray(numbers, dtype=float))  # a message: rare
+            if not finite.all():
+                self._refuse_state("~/measured_state", self.measured_port.topic,  # type: ignore[union-attr]
+                                   numbers, finite)
+                return
         self.measured = list(values)
         self.measured_dot = list(dots) if dots else [_NAN] * n

@@ -228,6 +228,7 @@ class TrajectoryInterpolator(rtcf.Component):
                     "'rtcf[ros2]'; ROS 1: apt install python3-trajectory-msgs)"
                 ) from None
             self.trajectory = self.add_input("joint_trajectory", JointTrajectory)
+        self.refused_messages = {"joint_trajectory": 0}  # for tests and reports
         self.plan: _Plan | None = None
         self.reference: np.ndarray | None = None
 
@@ -261,18 +262,27 @@ class TrajectoryInterpolator(rtcf.Component):
         if problem is None:
             order = [names.index(j) for j in self.joint_names]
             goals, ends = [], []
-            for point in message.points:
+            for i, point in enumerate(message.points):
                 d = point.time_from_start
                 ends.append(float(getattr(d, "sec", getattr(d, "secs", 0)))
                             + 1e-9 * float(getattr(d, "nanosec", getattr(d, "nsecs", 0))))
+                if not (math.isfinite(ends[-1]) and ends[-1] >= 0.0):
+                    problem = f"point {i} time_from_start is {ends[-1]!r} s (negative)"
+                    break
                 if len(point.positions) != len(names):
                     problem = f"a point has {len(point.positions)} positions for {len(names)}"
                     break
                 goals.append([float(point.positions[k]) for k in order])
+                bad = [k for k, x in enumerate(goals[-1]) if not math.isfinite(x)]
+                if bad:  # the reference would carry it to the joints' controller
+                    problem = (f"point {i} position of {self.joint_names[bad[0]]} is "
+                               f"{goals[-1][bad[0]]!r} (not finite)")
+                    break
             if problem is None and any(b <= a for a, b in itertools.pairwise([0.0, *ends])):
                 problem = f"its time_from_start {ends} do not increase from 0"
         if problem is not None:
-            self.log.error("joint_trajectory ignored: %s", problem)
+            self.refused_messages["joint_trajectory"] += 1
+            self.log.error("joint_trajectory ignored: %s; the plan goes on", problem)
             return
         begin = self.reference if self.reference is not None else self.plan.begin
         self.plan = _Plan(t, begin.copy(), np.array(goals), np.array(ends), False)

@@ -107,6 +107,30 @@ def test_a_command_older_than_the_timeout_is_ignored(caplog):
     trace = run_components([spec], 40, frequency=100.0, inputs={name + "/cmd_vel": commands})
     assert {s for s in wheel_speeds(trace) if s is not None} == {(0.0, 0.0)}
     assert "ignoring a cmd_vel stamped 0.250 s ago" in caplog.text
+    assert trace.components["/diff_drive_controller"].refused_messages == {"~/cmd_vel": 10}
+
+
+@pytest.mark.parametrize(("linear", "angular", "field"), [
+    (math.nan, 0.0, "linear.x is nan"), (0.5, math.inf, "angular.z is inf")])
+def test_a_command_that_is_not_finite_is_ignored_and_the_timeout_applies(
+    linear, angular, field, caplog
+):
+    spec, name = controller()
+
+    def commands(iteration, time):  # good until 0.5 s, then freshly stamped bad ones
+        good = time < 0.5
+        return twist(0.5 if good else linear, 0.0 if good else angular, round(time * 1e9))
+
+    trace = run_components([spec], 200, frequency=100.0, inputs={name + "/cmd_vel": commands})
+    speeds = wheel_speeds(trace)
+    assert all(s == (10.0, 10.0) for s in speeds[:100])  # the last good one, 0.5 s on
+    assert all(s == (0.0, 0.0) for s in speeds[101:])  # then braking: nothing came
+    assert all(math.isfinite(v) for s in speeds for v in s)
+    assert trace.components["/" + name.strip("/")].refused_messages == {"~/cmd_vel": 150}
+    ignored = [r.getMessage() for r in caplog.records if "ignored" in r.getMessage()]
+    said = (f"~/cmd_vel ignored: {field} (not finite), %d refused so far; cmd_vel_timeout "
+            "applies as if it had not arrived")
+    assert ignored == [said % 1, said % 101 + " (99 more like it since the last record)"]
 
 
 def test_velocity_acceleration_and_jerk_limits_apply_to_the_command():

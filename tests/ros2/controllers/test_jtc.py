@@ -45,7 +45,8 @@ class Kinematic(PositionJoints):
 
 
 def _duration(seconds: float) -> Duration:
-    return Duration(sec=int(seconds), nanosec=round(seconds % 1 * 1e9))
+    sec, fraction = divmod(seconds, 1.0)  # -0.5 s: -1 s + 500000000 ns, as ROS writes it
+    return Duration(sec=int(sec), nanosec=round(fraction * 1e9))
 
 
 def _trajectory(names: list[str], *points: tuple) -> JointTrajectory:
@@ -274,3 +275,155 @@ def test_the_arm_example_on_ros2_controllers_reaches_a_goal_given_through_the_ac
     assert trace.outputs["/arm/position"][-1].tolist() == pytest.approx([0.5, -0.2, 0.8], abs=0.02)
     states = trace.outputs["/joint_states"][-1]  # rtcf_controllers' joint_state_broadcaster
     assert list(states.name) == ["joint1", "joint2", "joint3"]
+
+
+# -- bad input never reaches the hardware (issue 38) --------------------------------------
+NAN, INF = float("nan"), float("inf")
+LIMITS = {"joint_limits": {"b": {"has_position_limits": True, "min_position": -3.14,
+                                 "max_position": 3.14}}}
+
+
+def _all_finite(trace: Trace, topic: str = "/position_command") -> bool:
+    return all(c is None or np.isfinite(c).all() for c in trace.outputs[topic])
+
+
+@pytest.mark.parametrize(("points", "params", "why"), [
+    (((0.5, [NAN, 1.0]),), {}, "point 0 position of a is nan (not finite)"),
+    (((0.5, [0.5, 1.0]), (1.0, [1.0, INF])), {}, "point 1 position of b is inf (not finite)"),
+    (((0.5, [0.5, 1.0], [NAN, 0.0]), (1.0, [1.0, 1.0], [0.0, 0.0])), {},
+     "point 0 velocity of a is nan (not finite)"),
+    (((-0.5, [0.5, 1.0]),), {}, "point 0 time_from_start is -1 s 500000000 ns (negative)"),
+    (((0.5, [0.0, 1e300]),), LIMITS,
+     "point 0 position of b is 1e+300, outside its limits [-3.14, 3.14] (joint_limits.b)"),
+    (((0.5, [0.0, 4.2]),), LIMITS,
+     "point 0 position of b is 4.2, outside its limits [-3.14, 3.14] (joint_limits.b)"),
+    # no limits: finite, but a cubic to 1e300 in 1 ms overflows
+    (((0.001, [0.0, 1e300], [0.0, 0.0]),), {},
+     "point 0 position of b is 1e+300: the spline to it from 0.0 in 0.001 s is not finite "
+     "(too far for its time, or a state that is not finite)"),
+])
+def test_a_goal_with_a_bad_value_is_rejected_naming_point_joint_and_value(
+    points: tuple, params: dict, why: str, caplog: pytest.LogCaptureFixture,
+) -> None:
+    goal = _goal(_trajectory(JOINTS, *points), id=3)
+    trace = _run(60, params, actions={ACTION: {0: goal}})
+    assert _goals(trace)[goal.id].accepted is False
+    assert f"goal 3 rejected: {why}" in [r.getMessage() for r in caplog.records]
+    assert trace.components["/jtc"].refused_messages == {
+        "~/joint_trajectory": 0, "~/follow_joint_trajectory": 1}
+    assert _all_finite(trace) and _positions(trace, 59) == [0.0, 0.0]  # never moved
+
+
+def test_a_huge_position_without_limits_never_makes_a_command_that_is_not_finite() -> None:
+    goal = _goal(_trajectory(JOINTS, (1.0, [0.0, 1e300])))  # linear: finite all the way
+    trace = _run(120, actions={ACTION: {0: goal}})
+    assert _goals(trace)[goal.id].accepted and _all_finite(trace)
+    assert _positions(trace, 119) == [0.0, 1e300]
+
+
+def test_a_topic_trajectory_with_nan_is_ignored_and_counted_and_the_last_one_goes_on(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    good = _trajectory(JOINTS, (0.5, [1.0, 1.0]))
+    bad = _trajectory(JOINTS, (0.5, [NAN, 0.0]))
+    trace = _run(80, inputs={TOPIC: lambda i, t: good if i == 0 else bad if i in (20, 21)
+                             else None})
+    assert _all_finite(trace) and _positions(trace, 79) == pytest.approx([1.0, 1.0])
+    assert trace.components["/jtc"].refused_messages["~/joint_trajectory"] == 2
+    assert [r.getMessage() for r in caplog.records if "ignored" in r.getMessage()] == [
+        "~/joint_trajectory ignored: point 0 position of a is nan (not finite); the current "
+        "trajectory goes on"]  # the second within the second: counted, not logged
+
+
+def test_a_nan_tolerance_runs_the_goal_on_the_defaults_and_says_so(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    goal = _goal(_trajectory(JOINTS, (0.5, [1.0, 1.0])), path={"a": NAN})
+    trace = _run(70, GOAL_TOLERANCE, actions={ACTION: {0: goal}})
+    assert _goals(trace)[goal.id].status == GoalStatus.SUCCEEDED
+    assert ("goal 1 runs on the default tolerances: path_tolerance of 'a': position nan is "
+            "illegal (not finite)") in caplog.text
+
+
+@pytest.mark.parametrize(("limits", "words"), [
+    ({"b": {"has_position_limits": True, "min_position": 1.0, "max_position": 0.0}},
+     "'joint_limits.b.min_position' is 1.0; give a number <= joint_limits.b.max_position 0.0"),
+    ({"a": {"has_position_limits": True, "min_position": -INF, "max_position": 0.0}},
+     "'joint_limits.a.min_position' is -inf; give a finite number"),
+])
+def test_limits_that_cannot_be_are_refused_at_configure(limits: dict, words: str) -> None:
+    with pytest.raises(rtcf.RtcfError) as caught:
+        _run(1, {"joint_limits": limits})
+    assert words in str(caught.value)
+
+
+class GoesNan(Kinematic):
+    """Kinematic joints whose position sensor reads NaN from ``~nan_s`` on."""
+
+    def update(self) -> None:
+        super().update()
+        if self.time >= float(self.params.get("~nan_s", 1e9)):
+            self.position.write(np.full_like(self.q, NAN))
+
+
+def test_a_command_that_is_not_finite_is_never_written_and_a_running_goal_aborts(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    # a lone effort command goes through the PID, whose error is NaN once the state is
+    goal = _goal(_trajectory(JOINTS, (1.0, [1.0, 1.0])))
+    jtc = {"joints": JOINTS, "command_interfaces": ["effort"], "gains": {"a": {"p": 1.0},
+           "b": {"p": 1.0}}, "state_interfaces": ["position", "velocity"]}
+    specs = [rtcf.ComponentSpec("arm", GoesNan, params={"initial_positions": [0.0, 0.0],
+                                                        "nan_s": 0.3}, is_first=True),
+             rtcf.ComponentSpec("jtc", JointTrajectoryController, params=jtc)]
+    trace = run_components(specs, 60, frequency=HZ, actions={ACTION: {0: goal}})
+    efforts = trace.outputs["/effort_command"]
+    assert _all_finite(trace, "/effort_command") and efforts[29] is not None
+    assert efforts[59] is efforts[29]  # the last finite command stays
+    record = _goals(trace)[goal.id]
+    assert record.states[-1] == (30, GoalStatus.ABORTED)
+    assert record.result.error_code == Result.INVALID_GOAL
+    controller = trace.components["/jtc"]
+    assert controller.refused_samples == 30
+    lines = [r.getMessage() for r in caplog.records if "not written" in r.getMessage()]
+    assert lines == ["effort_command not written: the command [nan nan] is not finite; the "
+                     "last command stays, holding position"]
+
+
+@pytest.mark.parametrize("file", ["arm.launch", "arm.launch.xml"])
+@pytest.mark.parametrize(("position", "why"), [
+    (NAN, "point 0 position of joint2 is nan (not finite)"),
+    (1e300, "point 0 position of joint2 is 1e+300, outside its limits [-2.0, 2.0] "
+            "(joint_limits.joint2)"),
+])
+def test_the_arm_example_rejects_a_goal_the_arm_cannot_take(
+    file: str, position: float, why: str, caplog: pytest.LogCaptureFixture,
+) -> None:
+    # issue 38's report: such a goal was accepted and MuJoCo went unstable
+    goal = _goal(_trajectory(["joint1", "joint2", "joint3"], (1.0, [0.0, position, 0.6])))
+    trace = run_launch(f"rtcf_examples {file}", 300, args={"ros2_controllers": "true"},
+                       actions={ARM_ACTION: {100: goal}})
+    assert trace.actions[ARM_ACTION].goals[goal.id].accepted is False
+    assert f"goal 1 rejected: {why}" in caplog.text
+    for topic in ("/arm/position_reference", "/arm/position"):
+        assert all(v is None or np.isfinite(v).all() for v in trace.outputs[topic])
+    assert trace.outputs["/arm/position"][-1].tolist() == pytest.approx([0.0, 0.3, 0.6],
+                                                                         abs=1e-3)
+
+
+def test_a_state_that_turns_nan_violates_a_checked_tolerance_and_nothing_nan_is_written(
+) -> None:
+    # NaN compares false: unchecked, a NaN error would pass every tolerance (the goal
+    # would "succeed" with the arm's state unknown)
+    goal = _goal(_trajectory(JOINTS, (0.5, [1.0, 1.0])), path={"a": 0.05})
+    specs = [rtcf.ComponentSpec("arm", GoesNan, params={"initial_positions": [0.0, 0.0],
+                                                        "nan_s": 0.2}, is_first=True),
+             rtcf.ComponentSpec("jtc", JointTrajectoryController, params={
+                 "joints": JOINTS, "command_interfaces": ["position"],
+                 "state_interfaces": ["position", "velocity"], **GOAL_TOLERANCE})]
+    trace = run_components(specs, 80, frequency=HZ, actions={ACTION: {0: goal}})
+    record = _goals(trace)[goal.id]
+    assert record.states[-1] == (20, GoalStatus.ABORTED)
+    assert record.result.error_code == Result.PATH_TOLERANCE_VIOLATED
+    assert _all_finite(trace)  # the hold where the joints read NaN is never written
+    assert trace.components["/jtc"].refused_samples == 59

@@ -188,8 +188,8 @@ def test_a_command_that_is_not_finite_is_refused_and_nothing_is_written_before_t
                                inputs={"/forward/commands": fed})
     assert trace.outputs["/position_command"][0] is None
     assert trace.outputs["/position_command"][1].tolist() == [1.0, 2.0, 3.0]
-    assert _records(caplog, "is not finite") == [
-        "/forward/commands refused: a value is not finite ([1.0, nan, 3.0]); the last "
+    assert _records(caplog, "not finite") == [
+        "/forward/commands refused: position of j2 is nan (not finite); the last "
         "command stays"]
     # interface_name is the class's: velocity in the parameters is named and ignored
     assert _records(caplog, "interface_name 'velocity' ignored")
@@ -237,6 +237,8 @@ def test_joint_states_carry_the_joints_values_names_stamp_and_frame_id(
     assert last.header.frame_id == "base"
     assert (last.header.stamp.sec, last.header.stamp.nanosec) == (0, 20_000_000)
     assert _records(caplog, "has 3 values for 2 joints (shoulder, elbow)")
+    assert trace.components["/jsb"].refused_messages == {
+        "position": 1, "velocity": 0, "effort": 0}
     dynamic = trace.last("/dynamic_joint_states")
     assert list(dynamic.joint_names) == ["shoulder", "elbow", "finger"]
     assert [list(v.interface_names) for v in dynamic.interface_values] == [
@@ -256,6 +258,19 @@ def test_joints_and_interfaces_select_what_is_read_and_the_rest_is_nan() -> None
     msg = trace.last("/jsb/joint_states")  # use_local_topics: in the broadcaster's name
     assert list(msg.position) == [0.5] and math.isnan(msg.velocity[0])
     assert msg.header.frame_id == "base_link"  # ros2_controllers' default
+
+
+def test_states_that_are_not_finite_are_broadcast_as_they_are() -> None:
+    # states only: nothing to refuse, and nothing to crash on
+    q = [np.array([math.nan, 1.0]), np.array([math.inf, -math.inf])]
+    trace = run_components([_jsb(joints=["a", "b"])], 2, inputs={
+        "/position": q, "/velocity": np.array([math.nan, math.nan])})
+    first, last = trace.outputs["/joint_states"]
+    assert math.isnan(first.position[0]) and first.position[1] == 1.0
+    assert list(last.position) == [math.inf, -math.inf]
+    assert all(math.isnan(v) for v in last.velocity)
+    dynamic = trace.last("/dynamic_joint_states")
+    assert dynamic.interface_values[1].values[0] == -math.inf
 
 
 def test_without_joints_the_first_array_names_them() -> None:
@@ -352,6 +367,39 @@ def test_pid_holds_where_it_starts_until_a_reference_and_refuses_a_wrong_one(
     assert _efforts(trace) == pytest.approx([0.0, 0.0, 10.0 * 0.2])
     assert _records(caplog, "0 names, 0 values and 0 values_dot for 1 dofs (j)")
     assert _records(caplog, "dof 'other' is not one of j")
+    assert trace.components["/pid"].refused_messages == {"~/reference": 2, "position": 0}
+
+
+def test_pid_refuses_an_infinite_reference_and_keeps_the_last_good_one(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    fed = [_reference([0.7]), _reference([math.inf]), _reference([0.9], [-math.inf], ["j"]),
+           _reference([math.nan])]  # NaN: "leave it", ros2_controllers' convention
+    with caplog.at_level(logging.WARNING):
+        trace = run_components(
+            [_pid({"p": 10.0}, ("position", "velocity"))], 4, frequency=1 / DT,
+            inputs={"/position": np.array([0.5]), "/velocity": np.array([0.0]),
+                    "/pid/reference": fed})
+    assert _efforts(trace) == pytest.approx([10.0 * 0.2] * 4)  # 0.7 all along
+    assert trace.components["/pid"].refused_messages == {
+        "~/reference": 2, "position": 0, "velocity": 0}
+    assert _records(caplog, "not finite") == [
+        "/pid/reference refused: the value of j is inf (not finite); the last reference "
+        "stays"]  # the second within the second: counted, not said
+
+
+def test_pid_ignores_a_state_that_is_not_finite_and_keeps_the_last_good_one(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    positions = [0.5, math.nan, 0.6, math.inf]
+    with caplog.at_level(logging.WARNING):
+        trace = _run_pid(_pid({"p": 10.0}), positions, _reference([0.7]))
+    # the NaN and inf samples are refused: the last good position stands in for them
+    assert _efforts(trace) == pytest.approx([2.0, 2.0, 1.0, 1.0])
+    assert all(math.isfinite(e) for e in _efforts(trace))
+    assert trace.components["/pid"].refused_messages["position"] == 2
+    assert _records(caplog, "not finite") == [
+        "/position ignored: the value of j is nan (not finite); the last ones stay"]
 
 
 def test_pid_gains_that_control_toolbox_refuses_are_configuration_errors() -> None:

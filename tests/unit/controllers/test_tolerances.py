@@ -70,6 +70,14 @@ def test_a_goal_overrides_keeps_with_zero_and_erases_with_minus_one() -> None:
 @pytest.mark.parametrize(("goal", "why"), [
     (_goal([_tolerance("x", 1.0)]), "'x'"),
     (_goal(goal=[_tolerance("a", -2.0)]), "position -2 is illegal"),
+    # not finite: NaN would keep the default unsaid, inf switch the check off
+    (_goal([_tolerance("a", float("nan"))]),
+     "path_tolerance of 'a': position nan is illegal (not finite)"),
+    (_goal(goal=[_tolerance("b", 0.1, float("inf"))]),
+     "goal_tolerance of 'b': velocity inf is illegal (not finite)"),
+    (NS(path_tolerance=[], goal_tolerance=[],
+        goal_time_tolerance=NS(sec=1, nanosec=2_000_000_000)),
+     "goal_time_tolerance's nanosec 2000000000 is out of [0, 1e9)"),
 ])
 def test_a_goal_with_a_bad_tolerance_runs_on_the_defaults(goal: NS, why: str) -> None:
     tol, problem = for_goal(DEFAULTS, goal, JOINTS)
@@ -83,3 +91,13 @@ def test_the_checker_finds_the_first_joint_out_of_a_checked_tolerance() -> None:
     error = np.array([[0.05, 0.0], [0.0, -0.6], [0.0, 0.0]])
     assert checker.violation(error, tolerance) == 1
     assert "velocity error -0.6 > 0.5" in Checker.describe(error, tolerance, 1, "b")
+
+
+def test_an_error_that_is_nan_is_outside_a_checked_tolerance_only() -> None:
+    checker = Checker(2)
+    tolerance = np.array([[0.0, 0.1], [0.0, 0.0], [0.0, 0.0]])
+    nan = float("nan")
+    assert checker.violation(np.array([[nan, 0.0], [0.0, 0.0], [0.0, 0.0]]), tolerance) == -1
+    error = np.array([[0.0, nan], [0.0, 0.0], [0.0, 0.0]])
+    assert checker.violation(error, tolerance) == 1  # an unknown state is not within it
+    assert Checker.describe(error, tolerance, 1, "b") == "joint b: position error nan > 0.1"

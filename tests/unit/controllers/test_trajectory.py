@@ -8,6 +8,7 @@ from types import SimpleNamespace as NS
 import numpy as np
 import pytest
 
+from rtcf_controllers._limits import JointLimits
 from rtcf_controllers._trajectory import Trajectory, check, from_message
 
 
@@ -156,3 +157,78 @@ def test_from_message_orders_joints_and_holds_those_a_partial_goal_leaves_out() 
     assert traj.velocities is not None
     assert traj.velocities.tolist() == [[0.1, 0.0, 0.3], [0.0, 0.0, 0.0]]
     assert traj.accelerations is None and traj.effort is None
+
+
+# -- input that must never reach a command: refused, naming the point, joint and value
+def _limits() -> JointLimits:
+    return JointLimits({"b": (-3.14, 3.14)}, {}, {})
+
+
+NAN, INF = float("nan"), float("inf")
+
+
+@pytest.mark.parametrize(("msg", "why"), [
+    (_msg(JOINTS, _point(1, [0, NAN, 0])), "point 0 position of b is nan (not finite)"),
+    (_msg(JOINTS, _point(1, [0, 0, 0]), _point(2, [0, 0, -INF])),
+     "point 1 position of c is -inf (not finite)"),
+    (_msg(JOINTS, _point(1, [0, 0, 0], [NAN, 0, 0])),
+     "point 0 velocity of a is nan (not finite)"),
+    (_msg(JOINTS, _point(1, [0, 0, 0], [0, 0, 0], [0, INF, 0])),
+     "point 0 acceleration of b is inf (not finite)"),
+    (_msg(JOINTS, _point(1, [0, 0, 0], effort=[0, 0, NAN])),
+     "point 0 effort of c is nan (not finite)"),
+    (_msg(JOINTS, NS(time_from_start=NS(sec=-1, nanosec=0), positions=[0, 0, 0],
+                     velocities=[], accelerations=[], effort=[])),
+     "point 0 time_from_start is -1 s 0 ns (negative)"),
+    (_msg(JOINTS, _point(1, [0, 0, 0]),
+          NS(time_from_start=NS(sec=2, nanosec=1_000_000_000), positions=[0, 0, 0],
+             velocities=[], accelerations=[], effort=[])),
+     "point 1 time_from_start is 2 s 1000000000 ns (nanoseconds out of [0, 1e9))"),
+    (_msg(JOINTS, _point(1, [0, 4.2, 0])),
+     "point 0 position of b is 4.2, outside its limits [-3.14, 3.14] (joint_limits.b)"),
+    (_msg(["c", "b"], _point(1, [1e300, 1e300])),
+     "point 0 position of b is 1e+300, outside its limits [-3.14, 3.14] (joint_limits.b)"),
+])
+def test_check_refuses_values_that_are_not_finite_bad_times_and_positions_off_limits(
+    msg: NS, why: str
+) -> None:
+    problem = check(msg, JOINTS, allow_partial=True, allow_nonzero_end_velocity=True,
+                    allow_effort=True, limits=_limits())
+    assert problem == why
+
+
+def test_check_takes_positions_within_the_limits_and_no_limits_at_all() -> None:
+    inside = _msg(JOINTS, _point(1, [9.0, 3.14, -9.0]))
+    assert _check(inside) is None
+    assert check(inside, JOINTS, allow_partial=False, allow_nonzero_end_velocity=False,
+                 allow_effort=False, limits=_limits()) is None
+
+
+def test_a_roslike_ros1_duration_is_checked_too() -> None:
+    point = NS(time_from_start=NS(secs=-2, nsecs=500), positions=[0, 0, 0], velocities=[],
+               accelerations=[], effort=[])
+    assert _check(_msg(JOINTS, point)) == "point 0 time_from_start is -2 s 500 ns (negative)"
+
+
+@pytest.mark.parametrize("fields", ["p", "pv", "pva"])
+def test_splines_whose_coefficients_overflow_are_found_before_any_sample(fields: str) -> None:
+    # finite, but 1e300 in 1 ms overflows a cubic's and quintic's coefficients; a
+    # linear one's velocity stays finite (1e303) and is not refused here
+    v = [[0.0], [0.0]] if "v" in fields else None
+    a = [[0.0], [0.0]] if "a" in fields else None
+    traj = Trajectory([0.001, 1.0], [[1e300], [0.0]], v, a)
+    traj.begin(0.0, np.array([0.0]), np.array([0.0]), np.array([0.0]))
+    found = traj.not_finite()
+    if fields == "p":
+        assert found is None
+    else:
+        assert found == (0, 0, 0.0, pytest.approx(0.001))
+
+
+def test_a_state_that_is_not_finite_makes_the_first_spline_not_finite() -> None:
+    traj = Trajectory([1.0], [[1.0]], velocities=[[0.0]])
+    traj.begin(0.0, np.array([0.0]), np.array([float("nan")]))
+    assert traj.not_finite() == (0, 0, 0.0, 1.0)
+    fine = Trajectory([1.0], [[1.0]], velocities=[[0.0]])
+    fine.begin(0.0, np.array([0.0]), np.array([0.0]))
+    assert fine.not_finite() is None
