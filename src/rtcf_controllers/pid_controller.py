@@ -20,6 +20,7 @@ from ._layouts import run_from
 from ._message_types import message_class
 from ._params import ControllerParameters
 from ._pid import Gains, Pid, shortest_angular_distance
+from ._pid_references import take_reference
 from ._throttle import Throttled
 
 _isfinite = math.isfinite
@@ -139,7 +140,7 @@ class PidController(rtcf.Component):
     def update(self) -> None:
         self._measure()
         if self.reference_port.has_new_data:
-            self._take_reference(self.reference_port.read())
+            take_reference(self, self.reference_port.read())
         if self.seeding:
             self._seed()
         self._control(self.period)
@@ -240,48 +241,6 @@ class PidController(rtcf.Component):
         self.not_finite[name].error(
             "%s ignored: the value of %s is %r (not finite); the last ones stay",
             topic, self.state_dofs[i], float(values[i]))
-
-    def _take_reference(self, msg: Any) -> None:
-        names, values, dots = msg.dof_names, msg.values, msg.values_dot
-        n = len(self.dofs)
-        if len(values) != n or (names and len(names) != n) or (dots and len(dots) != n):
-            self.refused_messages["~/reference"] += 1
-            self.refused.error(
-                "%s refused: %d names, %d values and %d values_dot for %d dofs (%s)",
-                self.reference_port.topic, len(names), len(values), len(dots), n,
-                ", ".join(self.state_dofs))
-            return
-        if names:
-            order = [self.index.get(name, -1) for name in names]
-            if -1 in order:
-                self.refused_messages["~/reference"] += 1
-                self.unknown.error(
-                    "%s refused: dof %r is not one of %s", self.reference_port.topic,
-                    names[order.index(-1)], ", ".join(self.state_dofs))
-                return
-        else:
-            order = list(range(n))
-            self.unnamed.warning(
-                "%s has no dof_names: its values are taken in the order of %s",
-                self.reference_port.topic, ", ".join(self.state_dofs))
-        for field, numbers in (("value", values), ("value_dot", dots)):
-            # infinite: refused; NaN: "leave this dof's reference" (ros2_controllers)
-            infinite = [k for k, x in enumerate(numbers) if math.isinf(x)]
-            if infinite:
-                k = infinite[0]
-                self.refused_messages["~/reference"] += 1
-                self.not_finite["~/reference"].error(
-                    "%s refused: the %s of %s is %r (not finite); the last reference stays",
-                    self.reference_port.topic, field, self.state_dofs[order[k]],
-                    float(numbers[k]))
-                return
-        two = self.two and len(dots) == n
-        for k, i in enumerate(order):
-            value = values[k]
-            if not _isnan(value):
-                self.reference[i] = value
-                if two and not _isnan(dots[k]):
-                    self.reference_dot[i] = dots[k]
 
     def _take_measured(self, msg: Any) -> None:
         names, values, dots = msg.dof_names, msg.values, msg.values_dot
