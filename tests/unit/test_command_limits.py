@@ -175,3 +175,36 @@ def test_a_restarted_hardware_takes_its_first_command_without_a_rate_limit():
     assert _feed(guard, [0.9, 1.0]) == pytest.approx([0.1, 1.0])  # 1 rad from -0.9
     guard.reset()  # what activation does: the arm may have moved while inactive
     assert _feed(guard, [0.9, 1.0]) == pytest.approx([0.9, 1.0])
+
+
+def test_diagnostics_count_the_clamps_and_refusals_and_warn_on_a_refusal():
+    from rtcf._core._timing import TimingAggregate
+    from rtcf._runtime._health import health
+    from rtcf._runtime._live_status import LiveStatus
+
+    def status(clamped, refused):
+        return LiveStatus(
+            iterations=10, overruns=0, jitter_p999_us=1.0, calc_p999_us=1.0,
+            calc_max_us=1.0, log_records_dropped=0, elapsed_s=0.1,
+            commands_clamped=clamped, commands_refused=refused)
+
+    clamped = health("/rt_runner", status(7, 0), TimingAggregate())
+    assert not clamped.warn  # limits doing their job: said, not a warning
+    assert dict(clamped.values)["commands clamped to limits"] == "7"
+    assert "commands clamped 7, refused 0" in clamped.message
+    refused = health("/rt_runner", status(7, 2), TimingAggregate())
+    assert refused.warn
+    assert dict(refused.values)["commands refused (not finite)"] == "2"
+
+
+def test_the_end_of_run_line_says_what_the_limits_did_and_nothing_when_idle():
+    from rtcf._core._command_limits import describe_summary
+
+    summary = {"topic": "/arm/effort_command", "interface": "effort", "joints": ["a", "b"],
+               "clamped": {"a": 0, "b": 3}, "refused_not_a_number": 1,
+               "refused_infinite": 0, "refused_malformed": 0}
+    assert describe_summary("/arm/hw.effort_command", summary) == (
+        "limits: command input '/arm/hw.effort_command' (/arm/effort_command, effort): "
+        "clamped b 3 times; refused 1 not a number (the previous command held)")
+    idle = dict(summary, clamped={"a": 0, "b": 0}, refused_not_a_number=0)
+    assert describe_summary("/arm/hw.effort_command", idle) == ""
