@@ -17,6 +17,16 @@ pytestmark = pytest.mark.integration
         ("scaling", re.compile(r"\| 1000 +\| 200 +\| pure ")),
         ("channels", "| mailbox try_read_into "),
         ("lanes", "| LET lane "),
+        # every system's row on both hot paths (a number in each column), and the fit
+        (
+            "command_limits",
+            re.compile(
+                r"(?s)\| \(a\) add_input, no check +\| 1 +\| 1 +\| \d+ .*"
+                r"\| \(e\) position \+ max_velocity, clamped every iteration +\| 4 +\| 30 +\| "
+                r"\d+ +\| [+-]\d+ +\| [+-]\d+ +\| \d+ +\| [+-]\d+ +\| [+-]\d+ +\|.*"
+                r"\| \(b\) command input, no limits \(finite check\) +\| -?\d+ +\| -?\d+\.\d"
+            ),
+        ),
         # all four rows, a ratio that is a number (a failed run prints "-"), the breakdown
         (
             "hot_path",

@@ -4,13 +4,17 @@ clock; the counts and the report; whose fault an infinite command is."""
 
 from __future__ import annotations
 
+import gc
 import math
+import sys
+import tracemalloc
 
 import numpy as np
 import pytest
 
 import rtcf
 from rtcf import ComponentSpec, JointLimits
+from rtcf._core._clock import SimClock
 from rtcf.testing import run_components
 
 NAN, INF = math.nan, math.inf
@@ -208,3 +212,55 @@ def test_the_end_of_run_line_says_what_the_limits_did_and_nothing_when_idle():
         "clamped b 3 times; refused 1 not a number (the previous command held)")
     idle = dict(summary, clamped={"a": 0, "b": 0}, refused_not_a_number=0)
     assert describe_summary("/arm/hw.effort_command", idle) == ""
+
+class SameWriter(rtcf.Component):
+    """Writes the same array, within the limits, in every iteration (allocates nothing)."""
+
+    def configure(self) -> None:
+        self.out = self.add_output("command", np.ndarray)
+        self.value = np.array([0.5, 0.5])
+
+    def update(self) -> None:
+        self.out.write(self.value)
+
+
+def _reading_only(hardware):
+    """``hardware`` that reads its command and keeps nothing of it."""
+    return type(hardware.__name__, (hardware,), {"update": lambda self: self.command.read()})
+
+
+@pytest.mark.parametrize("hardware", [Hardware, PositionHardware])
+def test_the_check_of_a_good_command_allocates_nothing(hardware):
+    """The common path (finite, within the limits) in the loop: no memory grows, and
+    one check allocates nothing even for a moment (a reduction such as ``ok.all()``
+    or ``changed.any()`` allocated about 900 B, beyond pymalloc, in every check)."""
+    runner = rtcf.Runner(rtcf.RunnerSettings(frequency=1000.0), clock=SimClock(),
+                         log_level="warning")
+    writer = runner.load(ComponentSpec("writer", SameWriter))
+    runner.load(ComponentSpec("hw", _reading_only(hardware)))
+    try:
+        runner.run(1000)
+        gc.collect()
+        before = sys.getallocatedblocks()
+        runner.run(20_000)
+        gc.collect()
+        grown = sys.getallocatedblocks() - before
+        (guard,) = runner._schedule.guards()
+        assert guard.clamped.tolist() == [0, 0] and guard.refused == 0
+        write, value = writer.out.write, writer.value
+        tracemalloc.start()
+        try:
+            peaks = []
+            for _ in range(200):
+                write(value)  # a new command for the guard
+                now, _ = tracemalloc.get_traced_memory()
+                tracemalloc.reset_peak()
+                guard()
+                peaks.append(tracemalloc.get_traced_memory()[1] - now)
+        finally:
+            tracemalloc.stop()
+    finally:
+        runner.shutdown()
+    assert grown < 200, f"{grown} blocks more after 20,000 iterations"
+    median = sorted(peaks)[len(peaks) // 2]
+    assert median < 256, f"a check allocated {median} B (the median of 200)"
