@@ -1,11 +1,20 @@
-"""What the ROS 1 and ROS 2 fuzz tests of a runner's services share; no middleware here.
+"""What the fuzz tests share; no middleware here.
 
-The generated text and names, hypothesis's settings, the loads each runner must refuse
-without stopping its loop, and the tally of what was sent and how it was answered.
-How a request is made and sent is each middleware's own (tests/ros*/test_fuzz_services.py).
+Of the ROS 1 and ROS 2 fuzz tests of a runner's services: the generated text and names,
+hypothesis's settings, the loads each runner must refuse without stopping its loop, and
+the tally of what was sent and how it was answered. How a request is made and sent is
+each middleware's own (tests/ros*/test_fuzz_services.py).
+
+Of the fuzz tests of the controllers' topics and actions
+(tests/ros2/controllers/test_fuzz_controllers.py): the extreme numbers, and the reading
+of a runner's log lines for the refusals a controller names (one record per refused
+message, or a record that counts those it left out within its throttling interval).
 """
 
+import math
+import re
 import string
+import sys
 import time
 
 from hypothesis import HealthCheck, settings
@@ -37,6 +46,32 @@ REFUSALS = {
     "a doubled name": (GOOD, "is already loaded"),
     "a malformed remap": (dict(GOOD, name="d", remaps=["x"]), "remap"),
 }
+
+
+# numbers a controller meets from a careless or hostile client: each not finite one
+# must be refused; the huge ones are finite but beyond any joint's limit or any speed;
+# the tiny ones (subnormal, the smallest normal) are ordinary values near zero
+NON_FINITE = (math.nan, math.inf, -math.inf)
+HUGE = (1e300, -1e300, sys.float_info.max, -sys.float_info.max, 1e20, -1e20)
+TINY = (5e-324, -5e-324, 2.5e-320, sys.float_info.min, -sys.float_info.min)
+EXTREME = st.sampled_from(NON_FINITE + HUGE + TINY)
+NOT_FINITE = st.sampled_from(NON_FINITE)
+
+# a line of `rtcf launch`'s console: [LEVEL] #iteration [/component]: message
+LOG_LINE = re.compile(r"^\[(?P<level>[A-Z]+)\](?: #\d+)? \[(?P<component>[^\]]+)\]: (?P<text>.*)$")
+# what the controllers' throttled records add: those left out since the last one
+MORE_LIKE_IT = re.compile(r"\((\d+) more like it\b")
+
+
+def component_lines(lines, component):
+    """The messages of ``component``'s log records among a console's ``lines``."""
+    return [m["text"] for m in map(LOG_LINE.match, lines) if m and m["component"] == component]
+
+
+def refused_count(texts):
+    """How many refusals ``texts`` (records, each naming one) stand for: one each, plus
+    the count a throttled record carries of those it left out."""
+    return sum(1 + sum(int(n) for n in MORE_LIKE_IT.findall(t)) for t in texts)
 
 
 class Tally:

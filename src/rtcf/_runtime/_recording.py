@@ -242,7 +242,9 @@ class WorkerRecording:
         writers: dict[str, list[OutputPort[Any]]] = {}
         for port in outputs:
             writers.setdefault(port.topic, []).append(port)
-        fed = {f.topic: f for f in feeders}
+        # a mapped action's requests come in through its ring's gate, which feeds no
+        # topic (and is not recorded): only the mapped inputs' feeders are
+        fed = {f.topic: f for f in feeders if isinstance(f, Feeder)}
         for t in topics:
             view = buf[t.offset : t.offset + t.nbytes]
             ring = Ring.open(view)
