@@ -15,6 +15,8 @@ import dataclasses
 import math
 from collections.abc import Sequence
 
+import numpy as np
+
 from ._params import ControllerParameters
 
 
@@ -40,6 +42,12 @@ class JointLimits:
             return None
         return (f"{value!r}, outside its limits [{bounds[0]!r}, {bounds[1]!r}] "
                 f"(joint_limits.{joint})")
+
+
+    def position_bounds(self, joints: Sequence[str]) -> tuple[np.ndarray, np.ndarray]:
+        """The lowest and the highest position of each of ``joints`` (infinite: none)."""
+        bounds = [self.position.get(j, (-math.inf, math.inf)) for j in joints]
+        return np.array([b[0] for b in bounds]), np.array([b[1] for b in bounds])
 
 
 def _finite(p: ControllerParameters, name: str) -> float:

@@ -207,6 +207,27 @@ class Trajectory:
                     return k, j, float(before), float(self._spans[k])
         return None
 
+    def leaves(self, low: np.ndarray, high: np.ndarray,
+               samples: int = 33) -> tuple[int, int, float] | None:
+        """After :meth:`begin`, with finite samples (:meth:`not_finite`): where the
+        positions between two points leave ``[low, high]`` (per joint; infinite: no
+        limit), as (point it heads to, joint index, the position there), sampling each
+        segment at ``samples`` evenly spaced times: a spline through points within the
+        limits can swing out of them (velocities too large for the points' spacing).
+        None if it stays within them. Once per trajectory, never in :meth:`sample`."""
+        if not self.interpolate:
+            return None  # the samples are the points, checked against the limits
+        fractions = np.linspace(0.0, 1.0, samples)
+        exponents = np.arange(ORDER)[:, None]
+        for k in range(self.n):
+            powers = (fractions * self._spans[k])[None, :] ** exponents  # ORDER x samples
+            positions = self._position[k] @ powers  # joints x samples
+            outside = (positions < low[:, None]) | (positions > high[:, None])
+            if outside.any():
+                j, s = np.unravel_index(int(outside.argmax()), outside.shape)
+                return k, int(j), float(positions[j, s])
+        return None
+
     def segment(self, t: float) -> int:
         """The index of the point that a sample at ``t`` heads to: 0 before the first
         point, ``n`` once the last point's time has come. Does not move the cursor."""

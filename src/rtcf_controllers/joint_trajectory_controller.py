@@ -72,6 +72,7 @@ class JointTrajectoryController(rtcf.Component):
         self.last_command = np.zeros((3, n))  # for interpolate_from_desired_state
         self.commanded = False  # whether last_command holds a command yet
         self.checker = Checker(n)
+        self._position_bounds = cfg.limits.position_bounds(joints)
         self.derivatives = [(row, self.state_in[name]) for row, name in
                             ((1, "velocity"), (2, "acceleration")) if name in self.state_in]
         pid = self.pid is not None
@@ -190,7 +191,7 @@ class JointTrajectoryController(rtcf.Component):
         # is not finite (the hold, the PID) must not reach the hardware either
         for port, source, finite in self.sources:
             np.isfinite(source, out=finite)
-            if not finite.all():
+            if np.count_nonzero(finite) != finite.size:  # .all() would allocate
                 self._not_finite(port.name, source)
                 return False
         for port, source, _ in self.sources:
@@ -263,6 +264,12 @@ class JointTrajectoryController(rtcf.Component):
                     f"{float(trajectory.positions[k, j])!r}: the spline to it from "
                     f"{before!r} in {span:g} s is not finite (too far for its time, or a "
                     "state that is not finite)")
+        swing = trajectory.leaves(*self._position_bounds)
+        if swing is not None:
+            k, j, value = swing
+            return (f"its spline to point {k} takes {self.joints[j]} to "
+                    f"{self.cfg.limits.outside(self.joints[j], 'position', value)}: too fast "
+                    "for the points' spacing")
         self.trajectory = trajectory
         self.holding = False
         return None

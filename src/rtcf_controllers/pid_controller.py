@@ -103,6 +103,8 @@ class PidController(rtcf.Component):
         inputs = ["~/reference", *(["~/measured_state"] if external else interfaces)]
         self.refused_messages = dict.fromkeys(inputs, 0)
         self.not_finite = {name: Throttled(self) for name in inputs}
+        self.output_not_finite = Throttled(self)
+        self.refused_samples = 0  # outputs not written: not finite
         self.finite = [np.zeros(n, dtype=bool) for _ in self.state_ports]  # check buffers
         self.command = [_NAN] * n  # what the command interfaces hold (NaN: never written)
         self._lay_out_state(state_dofs)
@@ -210,6 +212,14 @@ class PidController(rtcf.Component):
                 out += pid.compute_with_rate(error, ref_dot - measured_dot[i], dt)
             else:
                 out += pid.compute(error, dt)
+            if not _isfinite(out):  # a finite but huge error overflowed: never written
+                self.refused_samples += 1
+                pid.reset()  # its integral and last error hold the overflow: start afresh
+                self.output_not_finite.error(
+                    "%s of %s not written: the output %r is not finite (reference %r, "
+                    "state %r); the last command stays, the PID starts afresh",
+                    self.command_port.name, self.state_dofs[i], out, ref, state)
+                continue
             command[i] = out
             written = True
         if written:  # a new array each time: readers may keep the last one

@@ -314,6 +314,22 @@ def test_a_goal_with_a_bad_value_is_rejected_naming_point_joint_and_value(
     assert _all_finite(trace) and _positions(trace, 59) == [0.0, 0.0]  # never moved
 
 
+def test_a_goal_whose_spline_swings_out_of_the_limits_is_rejected(
+    caplog: pytest.LogCaptureFixture,
+) -> None:
+    """Its points are within the limits, but a velocity too large for their spacing
+    swings the cubic between them out (found by the fuzz: 4e294 on the command)."""
+    goal = _goal(_trajectory(JOINTS, (0.5, [0.0, 1.0], [0.0, 100.0]),
+                             (1.0, [0.0, 1.0], [0.0, 0.0])), id=4)
+    trace = _run(60, LIMITS, actions={ACTION: {0: goal}})
+    assert _goals(trace)[goal.id].accepted is False
+    said = [r.getMessage() for r in caplog.records if r.getMessage().startswith("goal 4")]
+    assert len(said) == 1 and said[0].startswith("goal 4 rejected: its spline to point 0 takes b to -")
+    assert said[0].endswith(", outside its limits [-3.14, 3.14] (joint_limits.b): too fast "
+                            "for the points' spacing")
+    assert _positions(trace, 59) == [0.0, 0.0]  # never moved
+
+
 def test_a_huge_position_without_limits_never_makes_a_command_that_is_not_finite() -> None:
     goal = _goal(_trajectory(JOINTS, (1.0, [0.0, 1e300])))  # linear: finite all the way
     trace = _run(120, actions={ACTION: {0: goal}})

@@ -402,6 +402,24 @@ def test_pid_ignores_a_state_that_is_not_finite_and_keeps_the_last_good_one(
         "/position ignored: the value of j is nan (not finite); the last ones stay"]
 
 
+def test_pid_never_writes_an_output_that_overflowed(caplog: pytest.LogCaptureFixture) -> None:
+    """A finite reference so large that p times the error is not finite (found by the
+    fuzz: -inf and NaN efforts from -1.8e308): not written, the last command stays."""
+    fed = [_reference([0.7]), _reference([-1.7976931348623157e308]), _reference([0.9])]
+    with caplog.at_level(logging.WARNING):
+        trace = run_components(
+            [_pid({"p": 200.0})], 4, frequency=1 / DT,
+            inputs={"/position": np.array([0.5]), "/pid/reference": fed})
+    assert all(math.isfinite(e) for e in _efforts(trace))
+    assert _efforts(trace) == pytest.approx([200.0 * 0.2, 200.0 * 0.2, 200.0 * 0.4, 200.0 * 0.4])
+    # (the overflow left nothing in the PID: the next good reference is followed at once)
+    assert trace.components["/pid"].refused_samples == 1
+    assert _records(caplog, "not written") == [
+        "effort_command of j not written: the output nan is not finite (reference "
+        "-1.7976931348623157e+308, state 0.5); the last command stays, the PID starts "
+        "afresh"]
+
+
 def test_pid_gains_that_control_toolbox_refuses_are_configuration_errors() -> None:
     with pytest.raises(rtcf.RtcfError, match=r"'gains\.j\.i_clamp_min' is 1\.0; give a number <= "):
         run_components([_pid({"i_clamp_min": 1.0})], 1)
