@@ -324,7 +324,8 @@ def test_a_goal_whose_spline_swings_out_of_the_limits_is_rejected(
     trace = _run(60, LIMITS, actions={ACTION: {0: goal}})
     assert _goals(trace)[goal.id].accepted is False
     said = [r.getMessage() for r in caplog.records if r.getMessage().startswith("goal 4")]
-    assert len(said) == 1 and said[0].startswith("goal 4 rejected: its spline to point 0 takes b to -")
+    assert len(said) == 1
+    assert said[0].startswith("goal 4 rejected: its spline to point 0 takes b to -")
     assert said[0].endswith(", outside its limits [-3.14, 3.14] (joint_limits.b): too fast "
                             "for the points' spacing")
     assert _positions(trace, 59) == [0.0, 0.0]  # never moved
