@@ -620,7 +620,7 @@ def test_a_command_check_passes_clamps_and_refuses(m: ModuleType) -> None:
     assert check.size == 3
     out = np.full(3, 7.0)
     assert check(np.array([0.5, 1.0, 1e300]), out, False) == 0  # passed unchanged
-    assert last.tolist() == [0.5, 1.0, 1e300] and out.tolist() == [7.0] * 3
+    assert last.tolist() == [0.5, 1.0, 1e300]
     # without the rate limit: into [lo, hi]
     assert check(np.array([3.0, -1.0, -5.0]), out, False) == 1
     assert out.tolist() == [1.0, 0.0, -5.0] and changed.tolist() == [True, True, False]
@@ -720,8 +720,8 @@ def test_the_compiled_and_python_command_checks_agree_bit_for_bit() -> None:
             got = []
             for (check, last, changed), out in zip(checks, outs, strict=True):
                 code = check(value, out, has_last)
-                got.append((code, out.tobytes(), last.tobytes(),
-                            changed.tobytes() if code == 1 else b""))
+                got.append((code, last.tobytes(),
+                            (out.tobytes(), changed.tobytes()) if code == 1 else None))
             assert got[0] == got[1]
             codes.append(got[0][0])
         assert {0, 1, 2, 3} <= set(codes), n

@@ -8,12 +8,12 @@ bounds, the rate limit, the clamp) in one call of the hot path's ``CommandCheck`
 (C on the compiled path, numpy in rtcf._core._interpreted):
 
 * **Not finite, or not one float per joint**: never passed on (a float array of
-  another dtype, float32 say, is checked and passed on as the guard's float64 copy). The previous command
-  is held (the input reads it again; None before the first good one), as ros2_control's
-  GenericSystem ignores a NaN command. An infinite value is also a fault of the
-  component that wrote it: once the hardware's ``update`` has run on the held
-  command, that component's ``on_error`` policy applies (stop, deactivate, restart,
-  a fallback). A command fed from the middleware (nothing in the runner writes the
+  another dtype, float32 say, is checked and passed on as the guard's float64 copy).
+  The previous command is held (the input reads it again; None before the first good
+  one), as ros2_control's GenericSystem ignores a NaN command. An infinite value is
+  also a fault of the component that wrote it: once the hardware's ``update`` has run
+  on the held command, that component's ``on_error`` policy applies (stop, deactivate,
+  restart, a fallback). A command fed from the middleware (nothing in the runner writes the
   topic) is only held.
 * **Outside the limits**: clamped, as ros2_control's joint_limits saturation limiter
   does when enforcement is on: a position into ``[min_position, max_position]`` and

@@ -406,12 +406,13 @@ class CommandCheck:
     (last := out; ``changed`` says which joints; a joint within its bounds keeps its
     value bit for bit); 2: refused, a NaN and no infinity; 3: refused, an infinity; 4:
     malformed, not a 1-D float64 buffer of n (any strides: a view is checked as it is).
-    ``out`` and ``changed`` are written only on 1, ``last`` only on 0 and 1.
+    ``changed`` is written only on 1, ``last`` only on 0 and 1; ``out`` holds the
+    clamped command after 1, and is scratch here otherwise (C leaves it alone).
 
     With numpy's out= arrays: nothing allocated when ``value`` is a float64 ndarray."""
 
-    __slots__ = ("_bounded", "_changed", "_clamped", "_hi", "_hi_now", "_last", "_lo",
-                 "_lo_now", "_ok", "_shape", "_step", "size")
+    __slots__ = ("_bounded", "_changed", "_hi", "_hi_now", "_last", "_lo",
+                 "_lo_now", "_ok", "_scratch", "_shape", "_step", "size")
 
     def __init__(self, lo: Any, hi: Any, step: Any, last: Any, changed: Any) -> None:
         n = len(lo)
@@ -427,9 +428,9 @@ class CommandCheck:
         self._shape = (n,)
         self._bounded = bool(np.isfinite(lo).any() or np.isfinite(hi).any())
         self._ok = np.zeros(n, dtype=bool)
-        self._clamped = np.zeros(n)
         self._lo_now = np.zeros(n)
         self._hi_now = np.zeros(n)
+        self._scratch = np.zeros(n)  # a clamp of out into itself
 
     def __call__(self, value: Any, out: Any, has_last: Any) -> int:
         if type(value) is not np.ndarray:  # another buffer: as numpy reads it, or 4
@@ -440,7 +441,10 @@ class CommandCheck:
             if view.format not in _FLOAT64 or view.ndim != 1:
                 return 4
             value = np.asarray(view)
-        if value.shape != self._shape or value.dtype is not _F64:
+        if value.shape != self._shape:
+            return 4
+        dtype = value.dtype
+        if dtype is not _F64 and dtype != _F64:  # (a buffer's "<d" may be a new instance)
             return 4
         ok = self._ok
         np.isfinite(value, out=ok)
@@ -457,15 +461,16 @@ class CommandCheck:
                 np.maximum(lo, self._lo, out=lo)
                 np.add(last, self._step, out=hi)
                 np.minimum(hi, self._hi, out=hi)
-            clamped = self._clamped
-            np.minimum(value, hi, out=clamped)
-            np.maximum(clamped, lo, out=clamped)
-            np.equal(clamped, value, out=ok)  # the joints left as they were
+            work = out if value is not out else self._scratch  # (out: scratch unless 1)
+            np.minimum(value, hi, out=work)
+            np.maximum(work, lo, out=work)
+            np.equal(work, value, out=ok)  # the joints left as they were
             if np.count_nonzero(ok) != n:
-                np.copyto(clamped, value, where=ok)  # bit for bit (-0.0 stays -0.0)
+                np.copyto(work, value, where=ok)  # bit for bit (-0.0 stays -0.0)
                 np.logical_not(ok, out=self._changed)
-                np.copyto(out, clamped)
-                np.copyto(self._last, clamped)
+                if work is not out:
+                    np.copyto(out, work)
+                np.copyto(self._last, out)
                 return 1
         np.copyto(self._last, value)
         return 0
