@@ -36,7 +36,7 @@ _HOT_PATH = Extension(
         for name in (
             "_compiled", "_compiled_slot", "_compiled_loop_state", "_compiled_ports",
             "_compiled_plans", "_compiled_calculation", "_compiled_word_tap",
-            "_compiled_handover", "_compiled_feeders",
+            "_compiled_handover", "_compiled_feeders", "_compiled_limits",
         )
     ],
     depends=["src/rtcf/_core/_compiled.h"],

@@ -264,3 +264,55 @@ def test_the_check_of_a_good_command_allocates_nothing(hardware):
     assert grown < 200, f"{grown} blocks more after 20,000 iterations"
     median = sorted(peaks)[len(peaks) // 2]
     assert median < 256, f"a check allocated {median} B (the median of 200)"
+
+
+def _guard(hardware):
+    from rtcf._core._command_limits import Counters
+
+    hw = hardware()
+    hw.configure()
+    guard = hw._rtcf_guards["command"]
+    guard.prepare(0.01, Counters())  # PositionHardware: 1 rad per period for joint a
+    return guard
+
+
+def _give(guard, value):
+    slot = guard.port._slot
+    slot.value = value
+    slot.seq += 1
+    guard()
+    return slot.value
+
+
+def test_a_float_command_of_another_dtype_is_checked_and_passed_on_as_float64():
+    guard = _guard(Hardware)  # effort: a within 10, b within 5
+    taken = _give(guard, np.array([1.0, 2.0], dtype=np.float32))
+    assert taken.dtype == np.float64 and taken.tolist() == [1.0, 2.0]
+    assert guard.last is taken and guard.refused == 0
+    taken = _give(guard, np.array([20.0, 2.0], dtype=">f8"))  # byte-swapped, clamped
+    assert taken.dtype == np.float64 and taken.tolist() == [10.0, 2.0]
+    assert guard.clamped.tolist() == [1, 0]
+    held = _give(guard, np.array([NAN, 2.0], dtype=np.float32))
+    assert held is guard.last and held.tolist() == [10.0, 2.0] and guard.nan == 1
+    _give(guard, np.array([1, 2]))  # integers: not a command
+    assert guard.malformed == 1
+
+
+def test_a_view_of_a_command_is_checked_as_it_is():
+    guard = _guard(Hardware)
+    every_other = np.array([1.0, 0.0, 2.0, 0.0])[::2]
+    assert _give(guard, every_other) is every_other
+    assert _give(guard, np.array([0.0, 20.0, 0.0, 30.0])[1::2]).tolist() == [10.0, 5.0]
+
+
+def test_the_rate_limit_holds_for_a_writer_that_changes_its_array_in_place():
+    """The check keeps its own copy of the last command passed on: a writer that
+    writes the same array again, changed in place, is still limited to a period's
+    change from what it passed on before."""
+    guard = _guard(PositionHardware)
+    command = np.array([0.0, 1.0])
+    _give(guard, command)
+    command[0] = 0.9  # within [-1, 1], but 0.9 rad in one period: 1 rad is the limit
+    assert _give(guard, command).tolist() == [0.9, 1.0]
+    command[0] = -0.5  # 1.4 rad from 0.9
+    assert _give(guard, command).tolist() == pytest.approx([-0.1, 1.0])

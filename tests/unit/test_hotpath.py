@@ -15,6 +15,7 @@ from collections.abc import Callable
 from types import ModuleType
 from typing import Any
 
+import numpy as np
 import pytest
 
 from rtcf._core import _hotpath, _interpreted
@@ -596,3 +597,165 @@ def test_what_the_loop_prefetches_is_a_hint_that_changes_nothing_and_holds_nothi
     calc.iterate(1, 0, 0)
     assert chain[-1]._rtcf_outputs["out"]._slot.value == 107.0
     calc.release()
+
+
+# ---- CommandCheck: a hardware command input's check (rtcf._core._command_limits) -------
+
+NAN, INF = float("nan"), float("inf")
+
+
+def _check(m: ModuleType, lo: Any, hi: Any, step: Any = None) -> tuple[Any, Any, Any]:
+    """A CommandCheck of the module on fresh arrays; (check, last, changed)."""
+    n = len(lo)
+    last, changed = np.zeros(n), np.zeros(n, dtype=bool)
+    step = np.full(n, INF) if step is None else np.array(step, dtype=float)
+    c = m.CommandCheck(np.array(lo, dtype=float), np.array(hi, dtype=float), step, last,
+                       changed)
+    return c, last, changed
+
+
+@pytest.mark.parametrize("m", MODULES)
+def test_a_command_check_passes_clamps_and_refuses(m: ModuleType) -> None:
+    check, last, changed = _check(m, [-1.0, 0.0, -INF], [1.0, 2.0, INF], [0.5, INF, INF])
+    assert check.size == 3
+    out = np.full(3, 7.0)
+    assert check(np.array([0.5, 1.0, 1e300]), out, False) == 0  # passed unchanged
+    assert last.tolist() == [0.5, 1.0, 1e300]
+    # without the rate limit: into [lo, hi]
+    assert check(np.array([3.0, -1.0, -5.0]), out, False) == 1
+    assert out.tolist() == [1.0, 0.0, -5.0] and changed.tolist() == [True, True, False]
+    assert last.tolist() == [1.0, 0.0, -5.0]
+    # with it: within step of last (joint 0: [0.5, 1.0]), then within [lo, hi]
+    assert check(np.array([-1.0, 0.5, 9.0]), out, True) == 1
+    assert out.tolist() == [0.5, 0.5, 9.0] and changed.tolist() == [True, False, False]
+    assert check(np.array([0.9, 0.5, 9.0]), out, True) == 0  # within both
+    assert last.tolist() == [0.9, 0.5, 9.0]
+    # not finite: refused, nothing written
+    out[:] = 7.0
+    changed[:] = True
+    for value, code in (([NAN, 0.0, 0.0], 2), ([0.0, INF, 0.0], 3), ([NAN, 0.0, -INF], 3),
+                        ([9.0, NAN, 0.0], 2)):
+        assert check(np.array(value), out, True) == code
+    assert last.tolist() == [0.9, 0.5, 9.0] and out.tolist() == [7.0] * 3
+    assert changed.all()
+
+
+@pytest.mark.parametrize("m", MODULES)
+def test_a_command_check_calls_malformed_what_is_not_one_float64_per_joint(
+    m: ModuleType,
+) -> None:
+    check, last, _ = _check(m, [-1.0, -1.0, -1.0], [1.0, 1.0, 1.0])
+    out = np.zeros(3)
+    for value in (np.zeros(3, dtype=np.float32), np.zeros(3, dtype=np.int64),
+                  np.zeros(3, dtype=">f8"), np.zeros(3, dtype=bool), np.zeros(4), np.zeros(2),
+                  np.zeros((3, 1)), np.zeros((1, 3)), np.float64(1.0), np.zeros(0),
+                  [0.0, 0.0, 0.0], (0.0, 0.0, 0.0), None, 1.0, "abc", bytes(24),
+                  array("f", [0.0] * 3), array("d", [0.0] * 4)):
+        assert check(value, out, False) == 4, value  # no exception either
+    assert last.tolist() == [0.0] * 3
+    # any other float64 buffer of 3, any strides, read-only or not: checked as it is
+    six = np.array([5.0, -9.0, 0.5, -9.0, -5.0, -9.0])
+    assert check(six[::2], out, False) == 1  # a non-contiguous view: handled
+    assert out.tolist() == [1.0, 0.5, -1.0]
+    assert check(six[::-2], out, False) == 1
+    assert out.tolist() == [-1.0, -1.0, -1.0]
+    assert check(array("d", [0.25, 0.5, 0.75]), out, False) == 0
+    assert last.tolist() == [0.25, 0.5, 0.75]
+    frozen = np.array([0.1, 0.2, 0.3])
+    frozen.flags.writeable = False
+    assert check(memoryview(frozen), out, False) == 0
+    unaligned = np.frombuffer(bytes(1) + np.array([0.5, 2.0, 0.0]).tobytes(), offset=1)
+    assert check(unaligned, out, False) == 1 and out.tolist() == [0.5, 1.0, 0.0]
+
+
+@pytest.mark.parametrize("m", MODULES)
+def test_a_command_check_clamps_into_its_own_array_and_keeps_a_joint_bit_for_bit(
+    m: ModuleType,
+) -> None:
+    check, _, changed = _check(m, [0.0, -1.0], [2.0, 1.0])
+    out = np.zeros(2)
+    value = np.array([-0.0, 5.0])  # -0.0 is within [0, 2]: it stays -0.0
+    assert check(value, out, False) == 1
+    assert out.tobytes() == np.array([-0.0, 1.0]).tobytes()
+    assert changed.tolist() == [False, True]
+    assert value.tolist() == [-0.0, 5.0]  # the writer's array is left alone
+    inplace = np.array([3.0, 0.5])  # value and out one array: each joint read first
+    assert check(inplace, inplace, False) == 1 and inplace.tolist() == [2.0, 0.5]
+
+
+@pytest.mark.parametrize("m", MODULES)
+def test_a_command_check_refuses_arrays_it_cannot_hold(m: ModuleType) -> None:
+    n3, b3 = np.zeros(3), np.zeros(3, dtype=bool)
+    frozen = np.zeros(3)
+    frozen.flags.writeable = False
+    for args in ((n3, n3, n3, n3, n3), (n3, np.zeros(2), n3, n3, b3),
+                 (n3, n3, n3, np.zeros(3, dtype=np.float32), b3), (n3, n3, n3, frozen, b3),
+                 (n3, n3, np.zeros(6)[::2], n3, b3)):
+        with pytest.raises(TypeError, match="CommandCheck"):
+            m.CommandCheck(*args)
+
+
+def test_the_compiled_and_python_command_checks_agree_bit_for_bit() -> None:
+    rng = np.random.default_rng(38)
+    for n in (1, 2, 7, 30):
+        lo = rng.uniform(-2.0, 0.0, n)
+        hi = rng.uniform(0.0, 2.0, n)
+        lo[rng.random(n) < 0.2] = -INF
+        hi[rng.random(n) < 0.2] = INF
+        step = rng.uniform(0.01, 1.0, n)
+        step[rng.random(n) < 0.3] = INF
+        checks = [_check(m, lo, hi, step) for m in (_compiled, _interpreted)]
+        outs = [np.zeros(n), np.zeros(n)]
+        codes = []
+        for _ in range(2000):
+            # near the last (passed on, as the common path), or anywhere (clamped)
+            value = (checks[0][1] + rng.normal(0.0, 0.001, n) if rng.random() < 0.4
+                     else rng.normal(0.0, 1.5, n))
+            odd = rng.random()
+            if odd < 0.05:
+                value[rng.integers(n)] = NAN
+            elif odd < 0.1:
+                value[rng.integers(n)] = rng.choice([INF, -INF])
+            has_last = bool(rng.random() < 0.7)
+            got = []
+            for (check, last, changed), out in zip(checks, outs, strict=True):
+                code = check(value, out, has_last)
+                got.append((code, last.tobytes(),
+                            (out.tobytes(), changed.tobytes()) if code == 1 else None))
+            assert got[0] == got[1]
+            codes.append(got[0][0])
+        assert {0, 1, 2, 3} <= set(codes), n
+
+
+@pytest.mark.parametrize("m", MODULES)
+def test_a_command_check_leaks_no_reference(m: ModuleType) -> None:
+    lo, hi, step = np.full(4, -1.0), np.full(4, 1.0), np.full(4, 0.1)
+    last, changed = np.zeros(4), np.zeros(4, dtype=bool)
+    arrays = (lo, hi, step, last, changed)
+    before_arrays = [sys.getrefcount(a) for a in arrays]
+    check = m.CommandCheck(lo, hi, step, last, changed)
+    good, far, nan, out = np.zeros(4), np.full(4, 5.0), np.full(4, NAN), np.zeros(4)
+    wrong = np.zeros(3)
+    values = (good, far, nan, wrong, out)
+    before = [sys.getrefcount(v) for v in values]
+    for k in range(100_000):
+        check(good, out, k % 2 == 0)
+        check(far, out, k % 2 == 0)
+        check(nan, out, True)
+        check(wrong, out, False)
+        check(None, out, False)
+    assert [sys.getrefcount(v) for v in values] == before
+    del check
+    gc.collect()
+    assert [sys.getrefcount(a) for a in arrays] == before_arrays
+
+
+def test_the_compiled_command_check_refuses_a_clamp_into_what_is_no_output() -> None:
+    check, last, changed = _check(_compiled, [-1.0], [1.0])
+    for out in (np.zeros(2), np.zeros(1, dtype=np.float32), None):
+        with pytest.raises(TypeError):
+            check(np.array([2.0]), out, False)
+    assert last.tolist() == [0.0] and changed.tolist() == [False]
+    assert check(np.array([0.5]), None, False) == 0  # out is only taken for a clamp
+    with pytest.raises(TypeError, match="check"):
+        check(np.array([0.5]), None)

@@ -3,14 +3,17 @@
 A hardware component declares each command interface it takes as a command input
 (``Component.add_command_input``): one float64 array per command, a value per joint.
 Before the component's ``update`` runs, each new command on such an input is checked
-(:class:`CommandGuard`), in the loop, without allocating:
+(:class:`CommandGuard`), in the loop, without allocating; its numbers (finite, the
+bounds, the rate limit, the clamp) in one call of the hot path's ``CommandCheck``
+(C on the compiled path, numpy in rtcf._core._interpreted):
 
-* **Not finite, or not one float per joint**: never passed on. The previous command
-  is held (the input reads it again; None before the first good one), as ros2_control's
-  GenericSystem ignores a NaN command. An infinite value is also a fault of the
-  component that wrote it: once the hardware's ``update`` has run on the held
-  command, that component's ``on_error`` policy applies (stop, deactivate, restart,
-  a fallback). A command fed from the middleware (nothing in the runner writes the
+* **Not finite, or not one float per joint**: never passed on (a float array of
+  another dtype, float32 say, is checked and passed on as the guard's float64 copy).
+  The previous command is held (the input reads it again; None before the first good
+  one), as ros2_control's GenericSystem ignores a NaN command. An infinite value is
+  also a fault of the component that wrote it: once the hardware's ``update`` has run
+  on the held command, that component's ``on_error`` policy applies (stop, deactivate,
+  restart, a fallback). A command fed from the middleware (nothing in the runner writes the
   topic) is only held.
 * **Outside the limits**: clamped, as ros2_control's joint_limits saturation limiter
   does when enforcement is on: a position into ``[min_position, max_position]`` and
@@ -41,6 +44,7 @@ from typing import Any
 import numpy as np
 
 from ._errors import ComponentError, ConfigurationError
+from ._hotpath import CommandCheck
 from ._ports import InputPort
 
 # a component (rtcf._core._component imports this module): its params, log, time_ns
@@ -169,8 +173,8 @@ class CommandGuard:
     the runner wrote."""
 
     __slots__ = (
-        "_buffers", "_changed", "_component", "_counters", "_hi", "_hi_now", "_lo",
-        "_lo_now", "_logged_ns", "_ok", "_rate", "_rate_limited", "_step", "_unsaid", "_which",
+        "_buffers", "_changed", "_check", "_component", "_counters", "_hi", "_last", "_lo",
+        "_logged_ns", "_rate", "_rate_limited", "_shape", "_step", "_unsaid", "_which",
         "bounded",
         "clamped", "infinite", "interface", "joints", "last", "limits", "malformed",
         "nan", "port", "seen",
@@ -193,10 +197,12 @@ class CommandGuard:
         self._rate_limited = bool(np.isfinite(self._rate).any())
         self._buffers = (np.zeros(n), np.zeros(n))
         self._which = 0
-        self._ok = np.zeros(n, dtype=bool)
+        self._shape = (n,)
         self._changed = np.zeros(n, dtype=bool)
-        self._lo_now = np.zeros(n)
-        self._hi_now = np.zeros(n)
+        self._last = np.zeros(n)  # the check's copy of the last command passed on
+        # the numbers in one call (C on the compiled path): it holds the arrays, and
+        # reads step as prepare() sets it
+        self._check = CommandCheck(self._lo, self._hi, self._step, self._last, self._changed)
         self._counters = Counters()
         self.clamped = np.zeros(n, dtype=np.int64)  # commands clamped, per joint
         self.nan = 0  # refused, and the previous command held: not a number
@@ -234,46 +240,44 @@ class CommandGuard:
             return False
         self.seen = seq
         value = slot.value
-        if (type(value) is not np.ndarray or value.shape != self._ok.shape
-                or value.dtype.kind != "f"):
+        if type(value) is not np.ndarray:
             self.malformed += 1
             self._hold(slot, 0, value)
             return False
-        ok = self._ok
-        np.isfinite(value, out=ok)
-        # count_nonzero, not ok.all() or changed.any(): a reduction allocates (about
-        # 900 B, past pymalloc: malloc and free in every check) and takes longer
-        if np.count_nonzero(ok) != len(ok):
-            infinite = bool(np.isinf(value).any())
-            if infinite:
-                self.infinite += 1
-            else:
-                self.nan += 1
-            self._hold(slot, 2 if infinite else 1, value)
-            return infinite and self.port.producer is not None
+        out = self._buffers[self._which]
         last = self.last
         rate_limited = last is not None and self._rate_limited
-        if self.bounded or rate_limited:
-            lo, hi = self._lo, self._hi
-            if last is not None and rate_limited:  # within a period's change of the last
-                lo, hi = self._lo_now, self._hi_now
-                np.subtract(last, self._step, out=lo)
-                np.maximum(lo, self._lo, out=lo)
-                np.add(last, self._step, out=hi)
-                np.minimum(hi, self._hi, out=hi)
-            out = self._buffers[self._which]
-            np.minimum(value, hi, out=out)
-            np.maximum(out, lo, out=out)
-            changed = self._changed
-            np.not_equal(out, value, out=changed)
-            if np.count_nonzero(changed):
+        # finite, then within [lo, hi] (and a period's change of the last): in one call
+        code = self._check(value, out, rate_limited)
+        if code == 0:  # passed on unchanged
+            self.last = value
+            return False
+        given = value
+        if code == 4:  # not native float64 (or not n): another float as float64, or refused
+            if value.dtype.kind != "f" or value.shape != self._shape:
+                self.malformed += 1
+                self._hold(slot, 0, value)
+                return False
+            np.copyto(out, value)  # float32, a byte-swapped float64, ...: the guard's copy
+            code = self._check(out, out, rate_limited)
+            if code == 0:
                 self._which ^= 1
-                np.add(self.clamped, changed, out=self.clamped, casting="unsafe")
-                self._counters.clamped[0] += 1
-                self._say(3, value)
-                slot.value = value = out
-        self.last = value
-        return False
+                slot.value = self.last = out
+                return False
+        if code == 1:  # clamped into out
+            self._which ^= 1
+            np.add(self.clamped, self._changed, out=self.clamped, casting="unsafe")
+            self._counters.clamped[0] += 1
+            self._say(3, given)
+            slot.value = self.last = out
+            return False
+        infinite = code == 3  # refused: not finite
+        if infinite:
+            self.infinite += 1
+        else:
+            self.nan += 1
+        self._hold(slot, 2 if infinite else 1, given)
+        return infinite and self.port.producer is not None
 
     def _hold(self, slot: Any, kind: int, value: Any) -> None:
         slot.value = self.last  # the previous command again (None: there was none)

@@ -20,11 +20,14 @@
  *                 the loop's feeders in every iteration: a few word reads each in the
  *                 common case (no control record waits; the supervisor's heartbeat moved;
  *                 no watched input came back or passed its deadline)
+ *   CommandCheck  a hardware command input's check in one call: finite, within its
+ *                 bounds and its rate limit, clamped into the guard's own array
  *
  * One module built from one file per concept and one internal header, _compiled.h,
  * as CPython builds Modules/_io/: _compiled_slot.c, _compiled_loop_state.c,
  * _compiled_ports.c, _compiled_plans.c, _compiled_calculation.c, _compiled_word_tap.c,
- * _compiled_handover.c and _compiled_feeders.c (RingGate, HeartbeatWatch, DeadlineGate). This file
+ * _compiled_handover.c, _compiled_feeders.c (RingGate, HeartbeatWatch, DeadlineGate) and
+ * _compiled_limits.c (CommandCheck). This file
  * holds the module itself: its state, its two functions and its initialisation.
  *
  * rtcf._core._interpreted is the same in Python, line for line: the path used where
@@ -129,7 +132,8 @@ PyInit__compiled(void)
         PyType_Ready(&CalculationType) < 0 ||
         PyType_Ready(&RingGateType) < 0 || PyType_Ready(&HeartbeatType) < 0 ||
         PyType_Ready(&DeadlineGateType) < 0 ||
-        PyType_Ready(&WordTapType) < 0 || PyType_Ready(&HandoverType) < 0)
+        PyType_Ready(&WordTapType) < 0 || PyType_Ready(&HandoverType) < 0 ||
+        PyType_Ready(&CommandCheckType) < 0)
         return NULL;
     str_plans = PyUnicode_InternFromString("plans");
     str_compiled_plans = PyUnicode_InternFromString("compiled_plans");
@@ -161,7 +165,8 @@ PyInit__compiled(void)
         PyModule_AddObjectRef(m, "HeartbeatWatch", (PyObject *)&HeartbeatType) < 0 ||
         PyModule_AddObjectRef(m, "DeadlineGate", (PyObject *)&DeadlineGateType) < 0 ||
         PyModule_AddObjectRef(m, "WordTap", (PyObject *)&WordTapType) < 0 ||
-        PyModule_AddObjectRef(m, "Handover", (PyObject *)&HandoverType) < 0) {
+        PyModule_AddObjectRef(m, "Handover", (PyObject *)&HandoverType) < 0 ||
+        PyModule_AddObjectRef(m, "CommandCheck", (PyObject *)&CommandCheckType) < 0) {
         Py_DECREF(m);
         return NULL;
     }

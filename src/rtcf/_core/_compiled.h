@@ -159,6 +159,7 @@ RTCF_INTERNAL extern PyTypeObject PortType, OutputPortType, InputPortType;
 RTCF_INTERNAL extern PyTypeObject CompiledPlansType, CalculationType;
 RTCF_INTERNAL extern PyTypeObject RingGateType, HeartbeatType, DeadlineGateType;
 RTCF_INTERNAL extern PyTypeObject WordTapType, HandoverType;
+RTCF_INTERNAL extern PyTypeObject CommandCheckType; /* _compiled_limits.c */
 
 /* the module's state (_compiled.c): FlowStatus's members (rtcf._core._ports hands them
  * in), and the names the calculation and the plans look up */

@@ -37,6 +37,7 @@ else:
 if TYPE_CHECKING:  # the two have the same API: type-check against the Python one
     from ._interpreted import (
         Calculation,
+        CommandCheck,
         CompiledPlans,
         DeadlineGate,
         Handover,
@@ -63,6 +64,7 @@ else:
     DeadlineGate = _module.DeadlineGate
     WordTap = _module.WordTap  # None on the Python path
     Handover = _module.Handover  # None on the Python path
+    CommandCheck = _module.CommandCheck
     set_flow_status = _module.set_flow_status
 
 

@@ -12,6 +12,8 @@ from __future__ import annotations
 from collections.abc import Callable, MutableSequence
 from typing import Any, Generic, TypeVar
 
+import numpy as np
+
 T = TypeVar("T")
 
 _flow_status: list[Any] = [0, 1, 2, 3]
@@ -389,6 +391,93 @@ class DeadlineGate:
     def release(self) -> None:
         """Let go of the words (calls do nothing after)."""
         self._seq = self._due = None
+
+
+class CommandCheck:
+    """A hardware command input's check (rtcf._core._command_limits.CommandGuard) in one
+    call, on the guard's own arrays: ``lo``, ``hi``, ``step`` (per joint; inf where no
+    rate limit) and ``last`` (the command last passed on, which each check that passes
+    one on copies in), float64 of n; ``changed``, bool of n. ``lo`` and ``hi`` are fixed
+    once given (whether they bound at all is read here once); ``step`` may change.
+
+    ``check(value, out, has_last)``: ``value`` the new command, ``out`` the guard's array
+    for a clamped one, ``has_last`` whether the rate limit applies (within ``step`` of
+    ``last``). Returns 0: passed unchanged (last := value); 1: clamped into ``out``
+    (last := out; ``changed`` says which joints; a joint within its bounds keeps its
+    value bit for bit); 2: refused, a NaN and no infinity; 3: refused, an infinity; 4:
+    malformed, not a 1-D float64 buffer of n (any strides: a view is checked as it is).
+    ``changed`` is written only on 1, ``last`` only on 0 and 1; ``out`` holds the
+    clamped command after 1, and is scratch here otherwise (C leaves it alone).
+
+    With numpy's out= arrays: nothing allocated when ``value`` is a float64 ndarray."""
+
+    __slots__ = ("_bounded", "_changed", "_hi", "_hi_now", "_last", "_lo",
+                 "_lo_now", "_ok", "_scratch", "_shape", "_step", "size")
+
+    def __init__(self, lo: Any, hi: Any, step: Any, last: Any, changed: Any) -> None:
+        n = len(lo)
+        for name, a, kind in (("lo", lo, "float64"), ("hi", hi, "float64"),
+                              ("step", step, "float64"), ("last", last, "float64"),
+                              ("changed", changed, "bool")):
+            if (type(a) is not np.ndarray or a.dtype != np.dtype(kind) or a.shape != (n,)
+                    or not a.flags.c_contiguous
+                    or (name in ("last", "changed") and not a.flags.writeable)):
+                raise TypeError(f"CommandCheck: {name} must be a 1-D {kind} array of {n}")
+        self._lo, self._hi, self._step, self._last, self._changed = lo, hi, step, last, changed
+        self.size = n
+        self._shape = (n,)
+        self._bounded = bool(np.isfinite(lo).any() or np.isfinite(hi).any())
+        self._ok = np.zeros(n, dtype=bool)
+        self._lo_now = np.zeros(n)
+        self._hi_now = np.zeros(n)
+        self._scratch = np.zeros(n)  # a clamp of out into itself
+
+    def __call__(self, value: Any, out: Any, has_last: Any) -> int:
+        if type(value) is not np.ndarray:  # another buffer: as numpy reads it, or 4
+            try:
+                view = memoryview(value)
+            except TypeError:
+                return 4
+            if view.format not in _FLOAT64 or view.ndim != 1:
+                return 4
+            value = np.asarray(view)
+        if value.shape != self._shape:
+            return 4
+        dtype = value.dtype
+        if dtype is not _F64 and dtype != _F64:  # (a buffer's "<d" may be a new instance)
+            return 4
+        ok = self._ok
+        np.isfinite(value, out=ok)
+        n = self.size
+        # count_nonzero, not ok.all(): a reduction allocates (about 900 B, past pymalloc)
+        if np.count_nonzero(ok) != n:
+            np.isinf(value, out=ok)
+            return 3 if np.count_nonzero(ok) else 2
+        if has_last or self._bounded:
+            lo, hi = self._lo, self._hi
+            if has_last:  # within a period's change of the last
+                lo, hi, last = self._lo_now, self._hi_now, self._last
+                np.subtract(last, self._step, out=lo)
+                np.maximum(lo, self._lo, out=lo)
+                np.add(last, self._step, out=hi)
+                np.minimum(hi, self._hi, out=hi)
+            work = out if value is not out else self._scratch  # (out: scratch unless 1)
+            np.minimum(value, hi, out=work)
+            np.maximum(work, lo, out=work)
+            np.equal(work, value, out=ok)  # the joints left as they were
+            if np.count_nonzero(ok) != n:
+                np.copyto(work, value, where=ok)  # bit for bit (-0.0 stays -0.0)
+                np.logical_not(ok, out=self._changed)
+                if work is not out:
+                    np.copyto(out, work)
+                np.copyto(self._last, out)
+                return 1
+        np.copyto(self._last, value)
+        return 0
+
+
+_F64 = np.dtype(np.float64)  # native byte order
+_FLOAT64 = ("d", "@d", "=d", "<d" if np.little_endian else ">d")
 
 
 # A recorded float, int or bool output's tap that the port's write calls directly: only
