@@ -243,8 +243,9 @@ class WorkerRecording:
         for port in outputs:
             writers.setdefault(port.topic, []).append(port)
         # a mapped action's requests come in through its ring's gate, which feeds no
-        # topic (and is not recorded): only the mapped inputs' feeders are
-        fed = {f.topic: f for f in feeders if isinstance(f, Feeder)}
+        # topic (and is not recorded): only the feeders of a topic (the mapped inputs',
+        # a replay's) are
+        fed = {f.topic: f for f in feeders if getattr(f, "topic", None) is not None}
         for t in topics:
             view = buf[t.offset : t.offset + t.nbytes]
             ring = Ring.open(view)
