@@ -561,12 +561,19 @@ def test_arm_measured_joints_stay_finite_and_within_their_ranges(arm):
 def test_arm_goals_are_accepted_or_rejected_as_judged(arm):
     goals = arm.goals
     assert len(goals) >= 1000
+    said = {int(m[1]): t for t in arm.run.stopped().log("/arm_controller")
+            if (m := GOAL_LINE.search(t)) and "rejected" in t}
+    # a goal whose points are within the limits may still be refused because its first
+    # spline, from where the arm is (which this judge does not know), swings out of them
+    swings = {k + 1 for k, (verdict, _, accepted) in enumerate(goals)
+              if verdict == ACCEPT and not accepted
+              and "its spline to point 0 takes" in said.get(k + 1, "")}
     wrong = [(k + 1, verdict, why) for k, (verdict, why, accepted) in enumerate(goals)
-             if (verdict == REFUSE and accepted) or (verdict == ACCEPT and not accepted)]
+             if (verdict == REFUSE and accepted)
+             or (verdict == ACCEPT and not accepted and k + 1 not in swings)]
     counts = {v: sum(1 for g in goals if g[0] == v) for v in (REFUSE, ACCEPT, EITHER)}
     assert counts[ACCEPT] >= 100 and counts[REFUSE] >= 300, counts
-    said = {int(m[1]): t for t in arm.run.stopped().log("/arm_controller")
-            if (m := GOAL_LINE.search(t))}
+    assert len(swings) <= 0.1 * counts[ACCEPT], sorted(swings)
     assert not wrong, (f"{len(wrong)} of {len(goals)} goals answered against their "
                        f"verdict ({counts}); the first (goal, verdict, why, what the "
                        f"controller said): {[(*w, said.get(w[0])) for w in wrong[:15]]}")
