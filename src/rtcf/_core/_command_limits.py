@@ -175,7 +175,6 @@ class CommandGuard:
     __slots__ = (
         "_buffers", "_changed", "_check", "_component", "_counters", "_hi", "_last", "_lo",
         "_logged_ns", "_rate", "_rate_limited", "_shape", "_step", "_unsaid", "_which",
-        "bounded",
         "clamped", "infinite", "interface", "joints", "last", "limits", "malformed",
         "nan", "port", "seen",
     )
@@ -193,7 +192,6 @@ class CommandGuard:
         self._hi = np.array([b[1] for b in bounds], dtype=float)
         self._rate = np.array([b[2] for b in bounds], dtype=float)
         self._step = np.full(n, INF)  # the rate times the period: set by prepare()
-        self.bounded = bool(np.isfinite(self._lo).any() or np.isfinite(self._hi).any())
         self._rate_limited = bool(np.isfinite(self._rate).any())
         self._buffers = (np.zeros(n), np.zeros(n))
         self._which = 0

@@ -102,17 +102,10 @@ class JointInfo:
 
 
 @dataclass(frozen=True)
-class ActuatorInfo:
+class ActuatorInfo(JointInfo):
     """An ``<actuator>`` of a ``<transmission>`` (an actuator hardware gets
-    ``actuator1``, with its one joint's interfaces, as in ros2_control)."""
-
-    name: str
-    role: str
-    state_interfaces: tuple[str, ...] = ()
-    command_interfaces: tuple[str, ...] = ()
-    mechanical_reduction: float = 1.0
-    offset: float = 0.0
-    read_only: bool = False
+    ``actuator1``, with its one joint's interfaces, as in ros2_control): a joint's
+    fields, under ros2_control's other name."""
 
 
 @dataclass(frozen=True)
