@@ -217,8 +217,8 @@ def controller_specs(node: NodeDescription, request: SpawnRequest,
     """One component per NAME, loaded as the controller manager ``setup`` would load
     it (``setup`` None: the runner was given no parameters file)."""
     namespace = namespace_of(request.manager)
-    files = [*request.param_files, *request.ros_params_files]
-    extra = read_setup(files, request.manager) if files else None
+    own_files = [*request.param_files, *request.ros_params_files]
+    extra = read_setup(own_files, request.manager) if own_files else None
     specs: list[ComponentSpec] = []
     for name in request.names:
         full = expand(name, namespace)
