@@ -12,7 +12,13 @@ from pathlib import Path
 import pytest
 import yaml
 
-from rtcf._cli._other_nodes import NotInstalled, command, find_executable, write_params_file
+from rtcf._cli._other_nodes import (
+    NotInstalled,
+    check_lines,
+    command,
+    find_executable,
+    write_params_file,
+)
 from rtcf._core._errors import Location
 from rtcf._launch._description import NodeDescription
 from rtcf._launch._xml import parse_launch_file
@@ -92,3 +98,13 @@ def test_on_exit_shutdown_and_required_are_kept(tmp_path: Path) -> None:
 </launch>""")
     a, b = parse_launch_file(str(ros1), {}).nodes
     assert (a.on_exit, b.on_exit) == ("shutdown", None)
+
+
+def test_rtcf_check_says_what_rtcf_launch_would_start(tmp_path: Path) -> None:
+    root = prefix_with(tmp_path, "demo", "talker")
+    nodes = [NodeDescription("demo", "talker", "t", "/", Location("b.launch.xml", 3), "ros2"),
+             NodeDescription("gone", "x", "g", "/", Location("b.launch.xml", 4), "ros2")]
+    first, second = check_lines(nodes, {"AMENT_PREFIX_PATH": str(root)})
+    assert first == f"note: b.launch.xml:3: node /t: rtcf launch starts {root}/lib/demo/talker"
+    assert second.startswith("warning: b.launch.xml:4: node /g not started: package 'gone' "
+                             "is not installed")

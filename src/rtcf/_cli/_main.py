@@ -34,7 +34,7 @@ from . import _replay as _replay_command
 from ._costs import apply_measured_costs
 from ._introspection import mapping
 from ._logconfig import apply_rosconsole
-from ._other_nodes import OtherNodes
+from ._other_nodes import OtherNodes, check_lines
 from ._report import can_plot, format_summary, timing_document, write_report
 
 EPILOG = """\
@@ -173,6 +173,8 @@ def cmd_graph(ns: argparse.Namespace) -> int:
 
 def cmd_check(ns: argparse.Namespace) -> int:
     deployment = _load(ns.target, ns.costs)
+    for line in check_lines(deployment.other_nodes):  # what rtcf launch would start
+        _say(line)
     for target in deployment.runners:
         runner = _build_runner(target, deployment, sim=True)
         try:

@@ -112,6 +112,31 @@ def find_executable(package: str, executable: str,
         f"(it has: {', '.join(found) or 'none'}); correct exec=, or reinstall the package")
 
 
+def resolve(node: NodeDescription, environ: Mapping[str, str]) -> tuple[str | None, str]:
+    """The node's executable, or None and the one line that says why it is not started."""
+    where = f"{node.location}: node {node.full_name}"
+    if node.dialect == "ros1":
+        return None, (f"note: {where} ({node.package}/{node.executable}) not started: "
+                      "rtcf launch starts the nodes of ROS 2 launch files; under ROS 1, "
+                      "roslaunch runs this file and starts it")
+    try:
+        return find_executable(node.package, node.executable, environ), ""
+    except NotInstalled as exc:
+        return None, f"warning: {where} not started: {exc}"
+
+
+def check_lines(nodes: Sequence[NodeDescription],
+                environ: Mapping[str, str] | None = None) -> list[str]:
+    """What ``rtcf check`` says of the other nodes: what rtcf launch would start, or why not."""
+    env = os.environ if environ is None else environ
+    lines = []
+    for node in nodes:
+        executable, problem = resolve(node, env)
+        lines.append(problem or f"note: {node.location}: node {node.full_name}: rtcf launch "
+                                f"starts {executable}")
+    return lines
+
+
 def command(node: NodeDescription, executable: str, params_file: str | None) -> list[str]:
     """The node's command line, in launch_ros' order."""
     argv = [executable, *shlex.split(node.args)]  # args, then --ros-args ROS_ARGS
@@ -205,18 +230,11 @@ class OtherNodes:
     def start(self) -> None:
         """Start every node that can be started; say why for each one that cannot."""
         for node in self._nodes:
-            where = f"{node.location}: node {node.full_name}"
-            if node.dialect == "ros1":
-                self._say(f"note: {where} ({node.package}/{node.executable}) not started: "
-                          "rtcf launch starts the nodes of ROS 2 launch files; under ROS 1, "
-                          "roslaunch runs this file and starts it")
-                continue
-            try:
-                executable = find_executable(node.package, node.executable, self._environ)
-            except NotInstalled as exc:
-                self._say(f"warning: {where} not started: {exc}")
-                continue
-            self._start(node, executable)
+            executable, problem = resolve(node, self._environ)
+            if executable is None:
+                self._say(problem)
+            else:
+                self._start(node, executable)
         if any((c.node.output or "log") not in _SCREEN for c in self._children):
             self._say(f"the stdout of nodes without output=\"screen\" goes to "
                       f"{self._log_path / 'launch.log'}, as ros2 launch logs it")
