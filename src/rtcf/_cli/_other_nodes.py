@@ -349,8 +349,9 @@ class OtherNodes:
         for child in self._children:
             if not child.reported:
                 code = child.process.poll()
-                sent = ", ".join(child.signals) or "nothing (the Ctrl-C reached it)"
-                self._say(f"node {child.node.full_name}: stopped (sent {sent}), "
+                how = (f"stopped (sent {', '.join(child.signals)})" if child.signals
+                       else "stopped by the terminal's Ctrl-C")
+                self._say(f"node {child.node.full_name}: {how}, "
                           f"{_exit_text(code if code is not None else 0)}")
         for path in self._temp_files:
             try:
