@@ -273,18 +273,14 @@ def test_runner_param_naming_no_runner() -> None:
     assert "parameter ~runner names 'r3', but the runners are /r1, /ns/r2" in msg
 
 
-def test_non_rtcf_nodes_are_warned_about_and_kept() -> None:
+def test_non_rtcf_nodes_are_kept_for_rtcf_launch_to_start() -> None:
     talker = node("talker", "talker.py", 4, package="rospy_tutorials")
     d = plan(describe(runner(), talker, params={"/rt_runner": {"mode": "no_wait", "frequency": 1}}))
     assert d.other_nodes == [talker]
-    assert d.warnings == [
-        "test.launch:4: node '/talker' (rospy_tutorials/talker.py) is not an rtcf runner or "
-        "launcher; rtcf does not start it"
-    ]
+    assert d.warnings == []  # rtcf launch starts it (rtcf._cli._other_nodes)
     # a node of the rtcf package that is neither is another node too
     d = plan(describe(node("tool", "other_tool", 6)))
     assert [n.name for n in d.other_nodes] == ["tool"]
-    assert "not an rtcf runner or launcher" in d.warnings[0]
 
 
 def test_planned_specs_load_with_the_description_parameters() -> None:

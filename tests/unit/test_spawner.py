@@ -81,6 +81,16 @@ def test_args_as_the_spawner_reads_them() -> None:
     assert plain.manager == "/robot/controller_manager" and not plain.inactive
     assert parse(spawner("a -n /other --controller-manager=cm")).manager == "/other/cm"
     assert parse(spawner("a -t pid_controller/PidController")).type_name.startswith("pid")
+    # served: --activate-as-group is what rtcf does anyway (no warning)
+    assert parse(spawner("a b --activate-as-group")).ignored == []
+
+
+def test_controller_ros_args_are_the_controllers_remaps_and_parameters() -> None:
+    request = parse(spawner(
+        "a --controller-ros-args '-r ~/cmd_vel:=/cmd_vel -p gain:=2 -p names:=[x,y]' "
+        "--controller-ros-args '--ros-args --remap odom:=/odom --param frame:=odom'"))
+    assert request.remaps == [("~/cmd_vel", "/cmd_vel"), ("odom", "/odom")]
+    assert request.ros_params == {"gain": 2, "names": ["x", "y"], "frame": "odom"}
 
 
 def test_spawner_nodes_are_named_as_the_spawner_names_itself() -> None:
@@ -92,7 +102,10 @@ def test_spawner_nodes_are_named_as_the_spawner_names_itself() -> None:
     ("args", "fragment"),
     [
         ("a --load-only", "option --load-only is not supported by rtcf: rtcf configures"),
-        ("a --controller-ros-args '-r x:=y'", "option --controller-ros-args is not supported"),
+        ("a --controller-ros-args '-r __ns:=/x'", "the remap '__ns:=/x' is not read"),
+        ("a --controller-ros-args '--log-level debug'", "'--log-level' is not read"),
+        ("a --controller-ros-args '-p gain'", "-p 'gain' is not NAME:=VALUE"),
+        ("a --controller-ros-args -r", "--controller-ros-args '-r': -r needs a value"),
         ("--controller a", "option --controller is not supported"),
         ("a --frobnicate", "unknown option '--frobnicate' in args"),
         ("a -p", "option -p needs a value"),
@@ -177,10 +190,10 @@ def test_ignored_options_are_warned_about_and_spawners_are_no_other_nodes(
     tmp_path: Path,
 ) -> None:
     deployment = load_deployment([launch(tmp_path, """
-  <node pkg="controller_manager" exec="spawner" args="arm_controller --activate-as-group"/>""")])
+  <node pkg="controller_manager" exec="spawner" args="arm_controller --switch-asap"/>""")])
     assert deployment.other_nodes == []
     (warning,) = [w for w in deployment.warnings if "spawner" in w]
-    assert "bringup.launch.xml:7: spawner '/spawner_arm_controller': --activate-as-group ignored" \
+    assert "bringup.launch.xml:7: spawner '/spawner_arm_controller': --switch-asap ignored" \
         in warning
 
 
@@ -201,3 +214,21 @@ def test_ros2_control_node_given_the_yaml_is_the_runner_and_its_controller_manag
     assert target.settings.frequency == 100.0  # update_rate
     assert [s.full_name for s in target.components] == ["/joint_state_broadcaster"]
     assert deployment.warnings == []  # its types and update_rate are no unknown settings
+
+
+def test_controller_ros_args_reach_the_component_and_win(tmp_path: Path) -> None:
+    ros_file = write(tmp_path, "ros.yaml", """\
+arm_controller:
+  ros__parameters:
+    joints: [r1, r2]
+    state_publish_rate: 10.0
+""")
+    loaded = specs(tmp_path, f"""
+  <node pkg="controller_manager" exec="spawner" args="arm_controller --controller-ros-args
+    '-r ~/joint_trajectory:=/traj -p gains.j1.p:=3.5 --params-file {ros_file}'"/>
+""")
+    arm = loaded["/arm_controller"]
+    assert arm.remaps == [("~/joint_trajectory", "/traj")]
+    assert arm.params["gains/j1/p"] == 3.5  # -p over the runner's file
+    assert arm.params["joints"] == ["r1", "r2"]  # --params-file over the runner's file
+    assert arm.params["state_publish_rate"] == 10.0

@@ -10,7 +10,7 @@ import os
 import signal
 import sys
 import time
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from pathlib import Path
 from types import FrameType
 from typing import Any
@@ -34,6 +34,7 @@ from . import _replay as _replay_command
 from ._costs import apply_measured_costs
 from ._introspection import mapping
 from ._logconfig import apply_rosconsole
+from ._other_nodes import OtherNodes, check_lines
 from ._report import can_plot, format_summary, timing_document, write_report
 
 EPILOG = """\
@@ -172,6 +173,8 @@ def cmd_graph(ns: argparse.Namespace) -> int:
 
 def cmd_check(ns: argparse.Namespace) -> int:
     deployment = _load(ns.target, ns.costs)
+    for line in check_lines(deployment.other_nodes):  # what rtcf launch would start
+        _say(line)
     for target in deployment.runners:
         runner = _build_runner(target, deployment, sim=True)
         try:
@@ -236,7 +239,9 @@ def cmd_launch(ns: argparse.Namespace) -> int:
     runner.lanes.say = False  # its lanes line below says where each lane runs
     runner.controller_setup = target.controllers  # list_controller_types, load refusals
     status = 0
-    previous = _install_stop_handlers(runner)
+    nodes = OtherNodes(deployment.other_nodes, deployment.parameters, say=_say_above,
+                       write=_write_above, on_shutdown=lambda: runner.request_stop(abort=True))
+    previous = _install_stop_handlers(runner, nodes.note_signal)
     try:
         runner.start()
         try:
@@ -291,6 +296,7 @@ def cmd_launch(ns: argparse.Namespace) -> int:
         else:
             kind = "simulated" if ns.sim else "/clock" if settings.use_sim_time else "real"
             _say(f"running {iterations} iterations ({kind} time)")
+        nodes.start()  # the file's other nodes, as ros2 launch would (_other_nodes)
         started = time.perf_counter()
         try:
             result = runner.run(iterations, trace=ns.trace, record=sink)
@@ -304,6 +310,9 @@ def cmd_launch(ns: argparse.Namespace) -> int:
             wall = time.perf_counter() - started
             if status_line:
                 status_line.clear()
+            nodes.stop()
+        if nodes.shutdown_by is not None:
+            status = 1
         if ns.trace and result is not None:
             _say(f"wrote {ns.trace}")
         if recording is not None:  # also after a fault: what led to it is in the file
@@ -343,6 +352,7 @@ def cmd_launch(ns: argparse.Namespace) -> int:
             _say(f"error: {err}")
             status = 1
     finally:
+        nodes.stop()
         _restore_handlers(previous)
         runner.close()
     return status
@@ -503,12 +513,24 @@ class _Handler(logging.StreamHandler):  # type: ignore[type-arg,unused-ignore]
         super().emit(record)
 
 
-def _install_stop_handlers(runner: WorkerRunner) -> dict[int, Any]:
+def _say_above(text: str) -> None:  # from the nodes' threads too
+    _STATUS.clear()
+    _say(text)
+
+
+def _write_above(text: str, is_stderr: bool) -> None:
+    _STATUS.clear()
+    print(text, file=sys.stderr if is_stderr else sys.stdout, flush=True)
+
+
+def _install_stop_handlers(runner: WorkerRunner,
+                           noted: Callable[[int], None] = lambda signum: None) -> dict[int, Any]:
     # counted here: on Ctrl-C the worker gets the signal too and may set the stop word first
     received: list[int] = []
 
     def handler(signum: int, frame: FrameType | None) -> None:
         name = signal.Signals(signum).name
+        noted(signum)
         if received:  # a second one: give up waiting, end the worker at once
             _STATUS.clear()
             if runner.pid is not None and runner.process and runner.process.poll() is None:

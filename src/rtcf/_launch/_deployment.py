@@ -11,7 +11,8 @@ ros2_control's nodes stand for the same: ``<node pkg="controller_manager"
 exec="ros2_control_node">`` is a runner that is its own controller manager (of its
 parameters, only the runner's settings are read; the rest is the YAML's controller
 manager section), and a ``spawner`` loads its controllers into the runner of its
-controller manager (:mod:`._spawner`).
+controller manager (:mod:`._spawner`). Every other node is kept as it is
+(``other_nodes``): ``rtcf launch`` starts it as ros2 launch would (:mod:`rtcf._cli._other_nodes`).
 """
 
 from __future__ import annotations
@@ -122,11 +123,7 @@ def plan(description: LaunchDescription) -> Deployment:
         elif is_spawner(node):
             spawners.append(node)
         else:
-            others.append(node)
-            warnings.append(
-                f"{node.location}: node {node.full_name!r} ({node.package}/{node.executable}) "
-                "is not an rtcf runner or launcher; rtcf does not start it"
-            )
+            others.append(node)  # rtcf launch starts them (rtcf._cli._other_nodes)
     if (launchers or spawners) and not runners:
         first = (launchers or spawners)[0].location
         raise LaunchError(

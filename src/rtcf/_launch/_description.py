@@ -39,6 +39,9 @@ class NodeDescription:
     # the <param from=...> files given to it, in order (a runner reads its controller
     # manager's section from them: _controller_setup)
     params_files: list[str] = field(default_factory=list)
+    # "shutdown" when the node's exit ends the launch: ROS 2 on_exit="shutdown", ROS 1
+    # required="true" (rtcf launch then stops the loop; only other nodes are affected)
+    on_exit: str | None = None
 
     @property
     def full_name(self) -> str:

@@ -8,6 +8,9 @@ calls would make it: the class installed for NAME's type (:mod:`._controller_typ
 named NAME in the controller manager's namespace, configured with its section's
 ``ros__parameters`` (the runner's files, then ``-p`` files, later winning), and
 active from the start unless ``--inactive`` (then configured and left inactive).
+``--controller-ros-args`` (remaps ``-r``, parameters ``-p``, ``--params-file``) are
+the controller node's own, as the controller manager gives them to it: the
+component's remaps, and parameters that override its sections'.
 
 :func:`parse` reads a spawner's ``args`` as Jazzy's spawner (and Humble's ``-t``)
 does; :func:`controller_specs` turns them into :class:`ComponentSpec`\\ s.
@@ -19,6 +22,8 @@ import os
 import shlex
 from dataclasses import dataclass, field
 from typing import Any
+
+import yaml
 
 from .._core._errors import ConfigurationError, LaunchError
 from .._core._faults import FailurePolicy
@@ -38,14 +43,18 @@ SPAWNER = "spawner"
 # and unloads it when it stops, so they are ignored, with a warning.
 _IGNORED_WITH_VALUE = ("--controller-manager-timeout", "--switch-timeout",
                        "--service-call-timeout")
-_WITH_VALUE = ("-c", "--controller-manager", "-p", "--param-file", "-n", "--namespace", "-t",
-               "--controller-type", *_IGNORED_WITH_VALUE)
-_IGNORED_FLAGS = ("-u", "--unload-on-kill", "--activate-as-group", "--switch-asap",
-                  "--no-switch-asap")
+# the options with a value that rtcf reads, by what they set
+_KEYS = {"-c": "c", "--controller-manager": "c", "-p": "p", "--param-file": "p",
+         "-n": "n", "--namespace": "n", "-t": "t", "--controller-type": "t",
+         "--controller-ros-args": "ros_args"}
+_WITH_VALUE = (*_KEYS, *_IGNORED_WITH_VALUE)
+_IGNORED_FLAGS = ("-u", "--unload-on-kill", "--switch-asap", "--no-switch-asap")
+# what --activate-as-group asks for is what rtcf does anyway: every controller of the
+# file starts in the loop's first iteration, together
+_SERVED_FLAGS = ("--inactive", "--activate-as-group")
 # Options rtcf cannot honour: an error, with what to do instead.
 _REFUSED = {
     "--load-only": "rtcf configures what it loads; use --inactive",
-    "--controller-ros-args": "give remaps and parameters in the runner's parameters file",
     "--controller": "the advanced per-controller form is not read; use one spawner node "
                     "per set of options",
     "--ros-args": "give the spawner's ROS arguments as <remap>/<param> of the runner",
@@ -86,6 +95,11 @@ class SpawnRequest:
     inactive: bool = False
     type_name: str = ""  # -t/--controller-type (Humble): the type of every NAME
     ignored: list[str] = field(default_factory=list)  # options that change nothing here
+    # --controller-ros-args, for every NAME: its node's remaps, --params-file files and
+    # -p parameters (dotted names, YAML-typed values)
+    remaps: list[tuple[str, str]] = field(default_factory=list)
+    ros_params_files: list[str] = field(default_factory=list)
+    ros_params: dict[str, Any] = field(default_factory=dict)
 
 
 def _error(node: NodeDescription, message: str) -> LaunchError:
@@ -121,15 +135,16 @@ def parse(node: NodeDescription) -> SpawnRequest:
             if option in _IGNORED_WITH_VALUE:
                 ignored.append(option)
             else:
-                values.setdefault(option.lstrip("-")[0], []).append(inline)
+                values.setdefault(_KEYS[option], []).append(inline)
         elif word in _IGNORED_FLAGS:
             ignored.append(word)
-        elif word == "--inactive":
+        elif word in _SERVED_FLAGS:
             flags.add(word)
         else:
             raise _error(node, f"unknown option {word!r} in args; rtcf reads NAME..., "
-                               "--inactive, -p/--param-file, -c/--controller-manager, "
-                               "-n/--namespace and -t/--controller-type")
+                               "--inactive, --activate-as-group, -p/--param-file, "
+                               "-c/--controller-manager, -n/--namespace, "
+                               "-t/--controller-type and --controller-ros-args")
     if not names:
         raise _error(node, "args names no controller; give args=\"NAME [NAME...]\"")
     namespace = node.namespace
@@ -140,8 +155,61 @@ def parse(node: NodeDescription) -> SpawnRequest:
     for path in files:
         if not os.path.isfile(path):
             raise _error(node, f"-p/--param-file {path!r} does not exist")
-    return SpawnRequest(names, manager, files, "--inactive" in flags,
-                        values.get("t", [""])[-1], ignored)
+    request = SpawnRequest(names, manager, files, "--inactive" in flags,
+                           values.get("t", [""])[-1], ignored)
+    for text in values.get("ros_args", []):  # repeated: each adds to the others
+        _controller_ros_args(node, text, request)
+    return request
+
+
+def _controller_ros_args(node: NodeDescription, text: str, request: SpawnRequest) -> None:
+    """One ``--controller-ros-args`` value, as the controller's node reads its ROS
+    arguments (``[--ros-args] -r FROM:=TO -p NAME:=VALUE --params-file FILE``)."""
+    def bad(problem: str) -> LaunchError:
+        return _error(node, f"--controller-ros-args {text!r}: {problem}")
+
+    try:
+        words = shlex.split(text)
+    except ValueError as exc:
+        raise bad(f"cannot be split: {exc}") from None
+    i = 0
+    while i < len(words):
+        word = words[i]
+        i += 1
+        if word in ("--ros-args", "--"):
+            continue
+        if word not in ("-r", "--remap", "-p", "--param", "--params-file"):
+            raise bad(f"{word!r} is not read; rtcf reads -r/--remap FROM:=TO, "
+                      "-p/--param NAME:=VALUE and --params-file FILE")
+        if i == len(words):
+            raise bad(f"{word} needs a value")
+        value = words[i]
+        i += 1
+        if word == "--params-file":
+            path = os.path.abspath(value)
+            if not os.path.isfile(path):
+                raise bad(f"--params-file {path!r} does not exist")
+            request.ros_params_files.append(path)
+            continue
+        left, assign, right = value.partition(":=")
+        if not assign or not left:
+            raise bad(f"{word} {value!r} is not NAME:=VALUE")
+        if word in ("-p", "--param"):
+            request.ros_params[left] = _yaml_value(right)
+        elif left.startswith("__") or (":" in left and not left.startswith(("/", "~"))):
+            raise bad(f"the remap {value!r} is not read: the controller is named NAME in "
+                      "its controller manager's namespace (give -c/-n to the spawner), "
+                      "and node-specific rules (node:from:=to) are not read")
+        else:
+            request.remaps.append((left, right))
+
+
+def _yaml_value(text: str) -> Any:
+    """A ``-p`` value as rcl reads it: YAML (``1`` an int, ``[1.0, 2.0]`` an array)."""
+    try:
+        return yaml.safe_load(text) if text else ""
+    except yaml.YAMLError:
+        return text
 
 
 def controller_specs(node: NodeDescription, request: SpawnRequest,
@@ -149,7 +217,8 @@ def controller_specs(node: NodeDescription, request: SpawnRequest,
     """One component per NAME, loaded as the controller manager ``setup`` would load
     it (``setup`` None: the runner was given no parameters file)."""
     namespace = namespace_of(request.manager)
-    extra = read_setup(request.param_files, request.manager) if request.param_files else None
+    own_files = [*request.param_files, *request.ros_params_files]
+    extra = read_setup(own_files, request.manager) if own_files else None
     specs: list[ComponentSpec] = []
     for name in request.names:
         full = expand(name, namespace)
@@ -165,6 +234,7 @@ def controller_specs(node: NodeDescription, request: SpawnRequest,
         params: dict[str, Any] = setup.params_for(full) if setup is not None else {}
         params.pop("type", None)
         params.update(own)
+        params.update(request.ros_params)  # the node's own overrides win, as in ROS 2
         try:
             module, class_name = resolve(type_name)
             specs.append(_spec(name, namespace, module, class_name, params, request, node))
@@ -180,6 +250,7 @@ def _spec(name: str, namespace: str, module: str, class_name: str, params: dict[
     full = expand(name, namespace)
     return ComponentSpec(
         name=name, module=module, class_name=class_name, namespace=namespace, params=tree,
+        remaps=list(request.remaps),
         location=node.location, autostart=not request.inactive,
         policy=FailurePolicy.from_params(tree, full),  # on_error, fallback
         rate=Rate.from_params(tree, full),  # update_rate, as ros2_control's

@@ -290,9 +290,17 @@ class _Loader:
             remaps=list(scope.remaps),
             env=dict(scope.env),
             output=self._reader.attr(element, scope, "output"),
+            on_exit=self._on_exit(element, scope),
         )
         self._check_unique(node, element, scope)
         return node
+
+    def _on_exit(self, element: Element, scope: Scope) -> str | None:
+        """ROS 2's ``on_exit="shutdown"``, ROS 1's ``required="true"``: the node's exit ends
+        the launch (other actions in ``on_exit`` are not read)."""
+        if self._reader.bool_attr(element, scope, "required", False):
+            return "shutdown"
+        return "shutdown" if self._reader.attr(element, scope, "on_exit") == "shutdown" else None
 
     def _node_args(self, element: Element, scope: Scope) -> str:
         args = self._reader.attr(element, scope, "args") or ""
