@@ -297,7 +297,10 @@ class GenericSystem(SystemInterface):
                 self._warned_disabled = True
             return ReturnType.OK
         if self.calculate_dynamics:
-            self._follow_dynamics(period)
+            offset = (0.0 if self.custom_interface_with_following_offset
+                      else self.position_state_following_offset)
+            follow_dynamics(self.states, self.commands, self._dynamics, self.joint_control_mode,
+                            period, offset)
         else:
             self._position_mirror()
         doubles, bools = self._joint_loop
@@ -314,36 +317,37 @@ class GenericSystem(SystemInterface):
             bools()
         return ReturnType.OK
 
-    def _follow_dynamics(self, period: float) -> None:
-        states, commands = self.states, self.commands
-        offset = (0.0 if self.custom_interface_with_following_offset
-                  else self.position_state_following_offset)
-        modes = self.joint_control_mode
-        nan = math.nan
-        for j, s_idx, c_idx in self._dynamics:
-            p, v, a = (float(states[i]) if i >= 0 else nan for i in s_idx)
-            cp, cv, ca = (float(commands[i]) if i >= 0 else nan for i in c_idx)
-            mode = modes[j]
-            if mode == ACCELERATION:
-                if math.isnan(v):
-                    v = 0.0
-                if math.isfinite(ca):
-                    a = ca
-                v += 0.0 if math.isnan(a) else a * period
-                if math.isfinite(v):
-                    p += v * period
-            elif mode == VELOCITY:
-                if math.isfinite(cv):
-                    old_v = v if math.isfinite(v) else 0.0
-                    v = cv
-                    a = (v - old_v) / period
-                if math.isfinite(v):
-                    p += v * period
-            elif math.isfinite(cp):
-                old_p, old_v = p, (v if math.isfinite(v) else 0.0)
-                p = cp + offset
-                v = (p - old_p) / period
+
+def follow_dynamics(states: np.ndarray, commands: np.ndarray,
+                    joints: Sequence[tuple[int, tuple[int, ...], tuple[int, ...]]],
+                    modes: Sequence[str], period: float, offset: float) -> None:
+    """``calculate_dynamics``: each joint's position, velocity and acceleration states
+    (indices, -1 where it has none) from its command in its mode."""
+    nan = math.nan
+    for j, s_idx, c_idx in joints:
+        p, v, a = (float(states[i]) if i >= 0 else nan for i in s_idx)
+        cp, cv, ca = (float(commands[i]) if i >= 0 else nan for i in c_idx)
+        mode = modes[j]
+        if mode == ACCELERATION:
+            if math.isnan(v):
+                v = 0.0
+            if math.isfinite(ca):
+                a = ca
+            v += 0.0 if math.isnan(a) else a * period
+            if math.isfinite(v):
+                p += v * period
+        elif mode == VELOCITY:
+            if math.isfinite(cv):
+                old_v = v if math.isfinite(v) else 0.0
+                v = cv
                 a = (v - old_v) / period
-            for i, value in zip(s_idx, (p, v, a), strict=True):
-                if i >= 0 and math.isfinite(value):
-                    states[i] = value
+            if math.isfinite(v):
+                p += v * period
+        elif math.isfinite(cp):
+            old_p, old_v = p, (v if math.isfinite(v) else 0.0)
+            p = cp + offset
+            v = (p - old_p) / period
+            a = (v - old_v) / period
+        for i, value in zip(s_idx, (p, v, a), strict=True):
+            if i >= 0 and math.isfinite(value):
+                states[i] = value
