@@ -554,9 +554,13 @@ def test_param_explicit_types(tmp_path: Path) -> None:
         ('value="maybe" type="bool"', ["'maybe'"]),
         ('value="1" type="complex"', ["'complex'", "yaml"]),
         ('value="[1, 2" type="yaml"', ["YAML"]),
-        ('command="cat foo"', ["not supported"]),
+        ('command="cat foo"', ["command 'cat foo'", "exited with code 1", "stderr: cat: foo"]),
+        ('command="no-such-program-here x"', ["'no-such-program-here' is not on PATH"]),
+        ('command="cat \'unbalanced"', ["cannot be split"]),
+        ('value="1" command="echo 1"', ["value and command=", "only one"]),
         ("", ["value="]),
         ('textfile="missing.txt"', ["missing.txt"]),
+        ('binfile="missing.bin"', ["missing.bin"]),
     ],
 )
 def test_param_errors(tmp_path: Path, attrs: str, words: list[str]) -> None:
@@ -1059,10 +1063,10 @@ def test_eval_errors(tmp_path: Path) -> None:
 
 def test_unknown_substitution_is_an_error(tmp_path: Path) -> None:
     error = launch_error(
-        tmp_path, '<launch>\n\n<node name="a" pkg="p" type="t" args="$(command ls)"/>\n</launch>'
+        tmp_path, '<launch>\n\n<node name="a" pkg="p" type="t" args="$(exec ls)"/>\n</launch>'
     )
     assert (error.file, error.line) == (str(tmp_path / "main.launch"), 3)
-    assert "$(command" in error.message
+    assert "$(exec" in error.message and "command, dirname" in error.message
 
 
 def test_unterminated_substitution_is_an_error(tmp_path: Path) -> None:

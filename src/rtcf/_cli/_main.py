@@ -76,6 +76,8 @@ def _load(words: Sequence[str], costs: str | None = None) -> Deployment:
     deployment = load_deployment(words)
     for warning in deployment.warnings:
         _say(f"warning: {warning}")
+    for note in deployment.notes:  # the robot description each runner reads
+        _say(note)
     if costs is not None:
         for note in apply_measured_costs(deployment, costs):
             _say(note)

@@ -13,6 +13,11 @@ parameters, only the runner's settings are read; the rest is the YAML's controll
 manager section), and a ``spawner`` loads its controllers into the runner of its
 controller manager (:mod:`._spawner`). Every other node is kept as it is
 (``other_nodes``): ``rtcf launch`` starts it as ros2 launch would (:mod:`rtcf._cli._other_nodes`).
+
+Each runner gets the robot description it would read, with its ``<ros2_control>``
+hardware parsed (:mod:`._robot_descriptions`): ``runner.robot_description`` (the text)
+and ``runner.hardware``; ``deployment.robot_description`` and ``deployment.hardware``
+are the one runner's.
 """
 
 from __future__ import annotations
@@ -27,10 +32,13 @@ from .._core._lane_names import lane_from_params
 from .._core._names import expand, join, namespace_of, normalize_namespace
 from .._core._params import ParameterStore
 from .._core._rates import Rate
+from .._core._robot_description import HardwareInfo
 from .._core._runner import ComponentSpec
 from .._core._settings import RunnerSettings
 from ._controller_setup import ControllerSetup, read_setup
 from ._description import LaunchDescription, NodeDescription
+from ._robot_descriptions import PARAM as DESCRIPTION_PARAM
+from ._robot_descriptions import RobotDescription, for_runner
 from ._spawner import controller_specs, is_spawner, parse
 
 PACKAGE = "rtcf"
@@ -70,6 +78,18 @@ class RunnerDeployment:
     # its controller manager's section of the <param from=...> files (update_rate, the
     # controllers' types and parameters), if it was given any
     controllers: ControllerSetup | None = None
+    # the robot description it reads (its text, where it came from, its hardware)
+    description: RobotDescription | None = None
+
+    @property
+    def robot_description(self) -> str | None:
+        """The robot description's text (xacro already run), or None."""
+        return None if self.description is None else self.description.text
+
+    @property
+    def hardware(self) -> list[HardwareInfo]:
+        """One HardwareInfo per ``<ros2_control>`` tag of the robot description."""
+        return [] if self.description is None else list(self.description.hardware)
 
 
 @dataclass
@@ -79,6 +99,17 @@ class Deployment:
     parameters: ParameterStore
     other_nodes: list[NodeDescription] = field(default_factory=list)
     warnings: list[str] = field(default_factory=list)
+    notes: list[str] = field(default_factory=list)  # what was found, for the user
+
+    @property
+    def robot_description(self) -> str | None:
+        """The one runner's robot description (None without runners or description)."""
+        return self.runner.robot_description if self.runners else None
+
+    @property
+    def hardware(self) -> list[HardwareInfo]:
+        """The one runner's hardware, from its robot description's ``<ros2_control>`` tags."""
+        return self.runner.hardware if self.runners else []
 
     @property
     def runner(self) -> RunnerDeployment:
@@ -118,6 +149,7 @@ def plan(description: LaunchDescription) -> Deployment:
     for node in description.nodes:
         if is_runner(node) or is_ros2_control_node(node):
             runners.append(_runner(node, params, warnings))
+            runners[-1].description = for_runner(node, description, warnings)
         elif is_launcher(node):
             launchers.append(node)
         elif is_spawner(node):
@@ -139,13 +171,15 @@ def plan(description: LaunchDescription) -> Deployment:
         target.components.append(spec)
     for node in spawners:
         _spawn(node, runners, warnings)
-    return Deployment(description.source, runners, params, others, warnings)
+    notes = [f"runner {r.name}: {r.description.summary()}" for r in runners if r.description]
+    return Deployment(description.source, runners, params, others, warnings, notes)
 
 
 def _runner(node: NodeDescription, params: ParameterStore,
             warnings: list[str]) -> RunnerDeployment:
     private = params.get(node.full_name, {})
-    private = private if isinstance(private, dict) else {}
+    private = {k: v for k, v in (private if isinstance(private, dict) else {}).items()
+               if k != DESCRIPTION_PARAM}  # the robot description's, not a setting
     where = f"{node.executable} {node.full_name!r}"
     if is_ros2_control_node(node):
         # its parameters are the controller manager's (update_rate, the types): of those

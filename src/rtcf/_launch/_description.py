@@ -59,3 +59,5 @@ class LaunchDescription:
     parameters: ParameterStore = field(default_factory=ParameterStore)
     args: dict[str, str] = field(default_factory=dict)  # final values of top-level args
     warnings: list[str] = field(default_factory=list)
+    # where each <param> set its parameter (full name -> the element's file and line)
+    param_locations: dict[str, Location] = field(default_factory=dict)

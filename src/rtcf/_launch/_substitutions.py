@@ -2,8 +2,12 @@
 
 Supported: ``$(arg x)``, ``$(var x)``, ``$(env VAR)``, ``$(env VAR default)``,
 ``$(optenv VAR default words)``, ``$(find pkg)``, ``$(find-pkg-share pkg)``,
-``$(dirname)``, ``$(anon name)`` and ``$(eval expr)``. Substitutions nest, as in
-ROS 2: the inner ones are expanded first (``$(find-pkg-share $(var pkg))``).
+``$(dirname)``, ``$(anon name)``, ``$(eval expr)``, and ROS 2's ``$(find-exec name)``
+and ``$(command 'program args' [on_stderr])`` (:mod:`._commands`: run once, as the
+file is read). Substitutions nest, as in ROS 2: a substitution's arguments are split
+into words first (quotes group words, a nested ``$(...)`` is one word with its
+spaces), then the inner ones are expanded (``$(find-pkg-share $(var pkg))``,
+``$(command '$(find-exec xacro) $(var model)')``).
 
 Errors are raised as :class:`SubstitutionError` with a message only; the launch
 reader adds the file and line of the attribute.
@@ -14,12 +18,13 @@ from __future__ import annotations
 import importlib.util
 import math
 import os
-import re
 import sys
 import xml.etree.ElementTree as ET
 from collections.abc import Callable, Mapping
 from pathlib import Path
 from typing import Any, Protocol
+
+from . import _commands
 
 
 class SubstitutionError(Exception):
@@ -47,8 +52,15 @@ class SubstitutionContext(Protocol):
 
     def find_package(self, name: str) -> str: ...
 
+    def environment(self) -> Mapping[str, str]:
+        """What the file set in the environment so far (``<set_env>``, ``<env>``)."""
+        ...
 
-_TOKEN = re.compile(r"'([^']*)'|\"([^\"]*)\"|(\S+)")
+    def warn(self, message: str) -> None:
+        """Report ``message`` as a warning of the file (it adds file and line)."""
+        ...
+
+
 _EVAL_BUILTINS: dict[str, Any] = {
     f.__name__: f
     for f in (
@@ -108,15 +120,58 @@ def _expand(body: str, context: SubstitutionContext) -> str:
     if not parts:
         raise SubstitutionError("empty substitution '$()'")
     kind = parts[0]
-    rest = substitute(parts[1], context) if len(parts) > 1 else ""
+    raw = parts[1] if len(parts) > 1 else ""
     if kind == "eval":
-        return _eval(rest, context)
-    words = [next(g for g in m.groups() if g is not None) for m in _TOKEN.finditer(rest)]
+        return _eval(substitute(raw, context), context)
     handler = _HANDLERS.get(kind)
     if handler is None:
         known = ", ".join(sorted([*_HANDLERS, "eval"]))
         raise SubstitutionError(f"unknown substitution '$({kind} ...)'; known ones: {known}")
-    return handler(words, context)
+    return handler([substitute(word, context) for word in split_words(raw)], context)
+
+
+def split_words(text: str) -> list[str]:
+    """A substitution's arguments as words, before their own substitutions are expanded:
+    split at whitespace, except inside quotes (``'...'``, ``"..."``, which are removed) and
+    inside a nested ``$(...)``, which stays one word with its quotes and spaces."""
+    words: list[str] = []
+    current: list[str] = []
+    started = False  # '' is a word too
+    quote = ""
+    depth = 0
+    index = 0
+    while index < len(text):
+        char = text[index]
+        if text.startswith("$(", index):
+            current.append("$(")
+            depth += 1
+            started = True
+            index += 2
+            continue
+        if depth:
+            depth += {"(": 1, ")": -1}.get(char, 0)
+            current.append(char)
+        elif quote:
+            if char == quote:
+                quote = ""
+            else:
+                current.append(char)
+        elif char in "'\"":
+            quote = char
+            started = True
+        elif char.isspace():
+            if started:
+                words.append("".join(current))
+                current, started = [], False
+        else:
+            current.append(char)
+            started = True
+        index += 1
+    if quote:
+        raise SubstitutionError(f"unterminated quote {quote} in {text!r}")
+    if started:
+        words.append("".join(current))
+    return words
 
 
 def _want(kind: str, words: list[str], low: int, high: int | None) -> None:
@@ -170,6 +225,43 @@ def _anon(words: list[str], context: SubstitutionContext) -> str:
     return context.anon(words[0])
 
 
+def _find_exec(words: list[str], context: SubstitutionContext) -> str:
+    _want("find-exec", words, 1, 1)
+    found = _commands.find_executable(words[0])
+    if found is None:
+        raise SubstitutionError(
+            f"$(find-exec {words[0]}): executable {words[0]!r} not found on the PATH "
+            f"(nor in {_commands.scripts_directory()})"
+        )
+    return found
+
+
+def _command(words: list[str], context: SubstitutionContext) -> str:
+    """launch's Command: the program's stdout; ``on_stderr`` says what its stderr does."""
+    _want("command", words, 1, 2)
+    on_stderr = words[1] if len(words) == 2 else "fail"
+    shown = f"$(command '{_commands.one_line(words[0])}')"
+    if on_stderr not in _commands.ON_STDERR:
+        raise SubstitutionError(
+            f"{shown}: on_stderr is {on_stderr!r}; use one of " + ", ".join(_commands.ON_STDERR)
+        )
+    try:
+        output = _commands.run(
+            words[0], capture_stderr=on_stderr == "capture", extra_env=context.environment()
+        )
+    except _commands.CommandFailed as exc:
+        raise SubstitutionError(f"{shown} failed: {exc}") from None
+    if output.stderr.strip() and on_stderr in ("fail", "warn"):
+        said = f"{shown} wrote to stderr: {_commands.first_lines(output.stderr)}"
+        if on_stderr == "fail":
+            raise SubstitutionError(
+                f"{said} (on_stderr 'fail', the default; give 'warn' or 'ignore' as its "
+                "second argument to go on)"
+            )
+        context.warn(said)
+    return output.stdout
+
+
 _HANDLERS: dict[str, Callable[[list[str], SubstitutionContext], str]] = {
     "arg": _arg,
     "var": _var,
@@ -179,6 +271,8 @@ _HANDLERS: dict[str, Callable[[list[str], SubstitutionContext], str]] = {
     "find-pkg-share": _find,
     "dirname": _dirname,
     "anon": _anon,
+    "find-exec": _find_exec,
+    "command": _command,
 }
 
 

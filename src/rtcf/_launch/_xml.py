@@ -337,7 +337,9 @@ class _Loader:
             self._nested_params(element, children, scope, node, name)
             return
         value = self._param_value(name, element, scope, node)
-        self._reader.set_tree(self._reader.param_name(name, element, scope, node), value)
+        full = self._reader.param_name(name, element, scope, node)
+        self._reader.set_tree(full, value)
+        self.description.param_locations[full] = Location(scope.file.path, element.line)
 
     def _nested_params(
         self,
@@ -369,7 +371,9 @@ class _Loader:
         value = self._reader.attr(element, scope, "value")
         if value is None:
             raise self._reader.error(
-                f"<param name={name!r}> needs value= or textfile=", element, scope
+                f"<param name={name!r}> needs value= (or textfile=, binfile=, command=)",
+                element,
+                scope,
             )
         ptype = self._reader.attr(element, scope, "type")
         separator = self._reader.attr(element, scope, "value-sep")

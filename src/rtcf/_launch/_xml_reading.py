@@ -116,9 +116,10 @@ class Scope:
 class Substitutions:
     """The substitution context of one scope (see ``_substitutions.SubstitutionContext``)."""
 
-    def __init__(self, reader: Reader, scope: Scope) -> None:
+    def __init__(self, reader: Reader, scope: Scope, element: Element) -> None:
         self._reader = reader
         self._scope = scope
+        self._element = element
 
     def arg(self, name: str, *, strict: bool) -> str:
         config = self._scope.configs.get(name)
@@ -145,6 +146,12 @@ class Substitutions:
 
     def find_package(self, name: str) -> str:
         return self._reader.find_package(name)
+
+    def environment(self) -> dict[str, str]:
+        return dict(self._scope.env)
+
+    def warn(self, message: str) -> None:
+        self._reader.warn(message, self._element, self._scope)
 
 
 def push_namespace(current: str, ns: str | None) -> str:
@@ -188,7 +195,7 @@ class Reader:
 
     def subst(self, text: str, element: Element, scope: Scope) -> str:
         try:
-            return substitute(text, Substitutions(self, scope))
+            return substitute(text, Substitutions(self, scope, element))
         except SubstitutionError as exc:
             raise self.error(str(exc), element, scope) from None
 

@@ -2,19 +2,23 @@
 
 ROS 1 launch files set parameters with ``<rosparam>`` (load, delete or dump; at the
 top or inside a ``<node>``), remap and set the environment with ``<remap>`` and
-``<env>`` at any level, and may give a ``<param>`` its value from a ``textfile=``.
-``<machine>`` and ``<test>`` are ignored with a warning; ``command=`` and
-``binfile=`` are refused. roslaunch's ``type="auto"`` inference also types the
-untyped values of ROS 1 nodes and of parameters outside a node. The walk and the
-elements both dialects share are in :mod:`._xml`.
+``<env>`` at any level, and may give a ``<param>`` its value from a ``textfile=`` (the
+text), a ``binfile=`` (the bytes) or a ``command=`` (its standard output, as roslaunch
+runs it: split with shlex, no shell, once while the file is read; :mod:`._commands`).
+``<machine>`` and ``<test>`` are ignored with a warning. roslaunch's ``type="auto"``
+inference also types the untyped values of ROS 1 nodes and of parameters outside a
+node. The walk and the elements both dialects share are in :mod:`._xml`.
 """
 
 from __future__ import annotations
 
 from typing import Any
 
+from . import _commands
 from ._description import NodeDescription
 from ._xml_reading import Element, Handler, Reader, Scope
+
+_SOURCES = ("value", "textfile", "binfile", "command")
 
 
 def infer_ros1(value: str) -> Any:
@@ -51,20 +55,50 @@ class Ros1Tags:
             "test": self._ignore,
         }
 
-    def param_text(self, name: str, element: Element, scope: Scope) -> str | None:
-        """The text of a ``<param textfile=>`` (None without one); command= and binfile= refused."""
-        for unsupported in ("command", "binfile"):
-            if unsupported in element.attrs:
-                raise self._reader.error(
-                    f"<param name={name!r}>: {unsupported}= is not supported "
-                    "(rtcf does not run shell commands or load binary files)",
-                    element,
-                    scope,
-                )
+    def param_text(self, name: str, element: Element, scope: Scope) -> str | bytes | None:
+        """The value of a ``<param>`` given by ``textfile=`` (text), ``binfile=`` (bytes) or
+        ``command=`` (its stdout); None when it has ``value=``. One of the four, as in
+        roslaunch."""
+        given = [key for key in _SOURCES if key in element.attrs]
+        if len(given) > 1:
+            raise self._reader.error(
+                f"<param name={name!r}> has {' and '.join(given)}=: give only one of value=, "
+                "textfile=, binfile= or command=",
+                element,
+                scope,
+            )
         textfile = self._reader.attr(element, scope, "textfile")
         if textfile is not None:
             return self._reader.read_text(self._reader.path(textfile, scope), element, scope)
+        binfile = self._reader.attr(element, scope, "binfile")
+        if binfile is not None:
+            return self._reader.read_bytes(self._reader.path(binfile, scope), element, scope)
+        command = self._reader.attr(element, scope, "command")
+        if command is not None:
+            return self._command(name, command, element, scope)
         return None
+
+    def _command(self, name: str, command: str, element: Element, scope: Scope) -> str:
+        """roslaunch's command parameter: the stdout of a command that exits with 0; what
+        it writes to stderr (which roslaunch lets through to the terminal) is a warning."""
+        shown = _commands.one_line(command)
+        try:
+            output = _commands.run(command, extra_env=scope.env)
+        except _commands.CommandFailed as exc:
+            raise self._reader.error(
+                f"<param name={name!r}>: cannot load command parameter: command {shown!r} "
+                f"failed: {exc}",
+                element,
+                scope,
+            ) from None
+        if output.stderr.strip():
+            self._reader.warn(
+                f"<param name={name!r}>: command {shown!r} wrote to stderr: "
+                + _commands.first_lines(output.stderr),
+                element,
+                scope,
+            )
+        return output.stdout
 
     def _rosparam_global(self, element: Element, scope: Scope) -> None:
         self.rosparam(element, scope, None)

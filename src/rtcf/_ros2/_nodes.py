@@ -53,6 +53,8 @@ from .._runtime._request_fields import RequestRefused, check_request
 from .._runtime._requests import Request, RequestQueue, serve_request, stop_on_signals
 from .._runtime._usage import help_printed, launcher_usage, runner_usage
 from ._face import ComponentFace, ros_logger_name
+from ._robot_description import PARAM as DESCRIPTION_PARAM
+from ._robot_description import DescriptionListener
 
 WATCH_EVERY_S = 1.0
 ANSWER_TIMEOUT_S = 60.0  # the longest a launcher waits for its runner's answer
@@ -153,9 +155,11 @@ def runner_main(argv: list[str] | None = None) -> int:
     rclpy, node = _node("rt_runner", argv)
     name = node.get_fully_qualified_name()
     try:
-        settings = RunnerSettings.from_params(
-            {k: v for k, v in _params(node).items()}, where=f"rt_runner {name}"
-        )
+        params = _params(node)
+        # its robot description: this parameter (Humble's way), else the topic (Jazzy's)
+        description = DescriptionListener(
+            node, lambda text: _say(name, text), params.pop(DESCRIPTION_PARAM, None))
+        settings = RunnerSettings.from_params(params, where=f"rt_runner {name}")
         # --params-file controllers.yaml (<param from=...>): its controller manager section
         controllers = None
         files = params_files(argv)
@@ -306,6 +310,7 @@ def runner_main(argv: list[str] | None = None) -> int:
     status = 0
     try:
         runner.start()
+        description.settle()  # a description being published comes before the first run
         _say(name, f"ready: {settings.frequency:g} Hz, mode {settings.mode}")
 
         def run() -> None:

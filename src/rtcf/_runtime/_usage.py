@@ -75,7 +75,8 @@ _RUNNER_SERVICES = {
 }
 # the parameters that only one middleware's runner reads
 _RUNNER_EXTRA: dict[str, list[tuple[str, str, str]]] = {
-    "ros2": [],
+    "ros2": [("robot_description", "", "the robot description (URDF); without it the runner "
+              "reads the robot_description topic (docs/robot-description.md)")],
     "ros1": [("/use_sim_time", "", "(global) counts where the runner sets no use_sim_time")],
 }
 
