@@ -29,6 +29,7 @@ from ._actions import ActionServer, check_action
 from ._command_limits import CommandGuard, JointLimits, declare_command_input
 from ._errors import ComponentError
 from ._faults import deadline_ns
+from ._interface_ports import COMMAND, STATE, HardwareKeys, InterfacePorts, declare_interfaces
 from ._log import ComponentLogger, LogRing, RecordSink
 from ._loop_state import LoopState
 from ._names import Resolver, join, validate_name
@@ -53,6 +54,11 @@ class Component:
     _rtcf_claims: set[str]  # names of the outputs declared claim=True
     _rtcf_actions: dict[str, ActionServer]
     _rtcf_guards: dict[str, CommandGuard]  # command inputs' checks, by port name
+    # ports that are hardware interfaces (their keys), and those bound to the run's
+    # hardware (no topics: kept out of _rtcf_inputs/_rtcf_outputs)
+    _rtcf_interfaces: dict[str, InterfacePorts]
+    _rtcf_bound: dict[str, Any]
+    _rtcf_hardware: HardwareKeys | None = None  # the run's hardware (None: none)
     _rtcf_configured: bool
     _rtcf_every: int = 1  # runs every this many iterations (its launcher's rate or every)
     # while configure runs again (lifecycle): the port names declared so far
@@ -148,6 +154,31 @@ class Component:
         ``limits`` is clamped (docs/hardware-limits.md)."""
         return declare_command_input(self, name, interface, joints, limits, deadline)
 
+    def add_state_interfaces(
+        self, name: str, keys: Sequence[str], *, deadline: float | None = None
+    ) -> InputPort[Any]:
+        """Declare an input of hardware state interfaces (in ``configure``): a float64
+        array, a value per key (``"joint1/position"``) in the order of ``keys``; an empty
+        key is a place with no interface (NaN). When the run has hardware (a robot
+        description), the values come from it before each ``update``, with no topic and
+        no remap; without, it is the input ``name`` of ``np.ndarray``
+        (docs/hardware.md#controllers-and-interfaces)."""
+        return declare_interfaces(self, name, STATE, keys, deadline)
+
+    def add_command_interfaces(self, name: str, keys: Sequence[str]) -> OutputPort[Any]:
+        """Declare an output of hardware command interfaces (in ``configure``): write a
+        float64 array, a value per key in the order of ``keys``. When the run has
+        hardware, what ``update`` wrote goes to those interfaces after it (checked
+        against the description's limits), and activation claims the keys; without, it
+        is the claimed output ``name`` of ``np.ndarray``."""
+        return declare_interfaces(self, name, COMMAND, keys)
+
+    @property
+    def hardware(self) -> HardwareKeys | None:
+        """The run's hardware interfaces (``state_keys``, ``command_keys``), or None when
+        the run has no hardware."""
+        return self._rtcf_hardware
+
     def add_action_server(
         self, name: str, action_type: type, *, max_goals: int = 1
     ) -> ActionServer:
@@ -188,7 +219,8 @@ class Component:
         problem = validate_name(port.name, what=what)
         if problem:
             raise ComponentError(problem, component=self.full_name)
-        if port.name in self._rtcf_inputs or port.name in self._rtcf_outputs:
+        if (port.name in self._rtcf_inputs or port.name in self._rtcf_outputs
+                or port.name in self._rtcf_bound):
             raise ComponentError(
                 f"component {self.full_name!r}: port {port.name!r} is declared twice; "
                 "give each port a unique name",
@@ -204,7 +236,7 @@ class Component:
         redeclared = self._rtcf_redeclared
         assert redeclared is not None
         if old is None or old.type is not port.type or port.name in redeclared:
-            kind = "input" if table is self._rtcf_inputs else "output"
+            kind = "input" if isinstance(port, InputPort) else "output"
             raise ComponentError(
                 f"component {self.full_name!r}: configure() declared the {kind} port "
                 f"{port.name!r} ({getattr(port.type, '__name__', port.type)}), which its first "
@@ -295,6 +327,7 @@ def _attach(
     state: LoopState,
     emit: Callable[[int, str, str, int, int], None] | None = None,
     every: int = 1,
+    hardware: HardwareKeys | None = None,
 ) -> None:
     """Give ``component`` its identity and its access to the runner (before __init__)."""
     component.name = name
@@ -309,6 +342,9 @@ def _attach(
     component._rtcf_claims = set()
     component._rtcf_actions = {}
     component._rtcf_guards = {}
+    component._rtcf_interfaces = {}
+    component._rtcf_bound = {}
+    component._rtcf_hardware = hardware
     component._rtcf_configured = False
     component._rtcf_every = every
 
