@@ -27,12 +27,18 @@ from typing import Any, TypeVar
 from ._action_protocol import ActionEvent, ActionRequest
 from ._actions import ActionServer, check_action
 from ._command_limits import CommandGuard, JointLimits, declare_command_input
-from ._errors import ComponentError
 from ._faults import deadline_ns
-from ._interface_ports import COMMAND, STATE, HardwareKeys, InterfacePorts, declare_interfaces
+from ._interface_ports import (
+    COMMAND,
+    STATE,
+    HardwareKeys,
+    InterfacePorts,
+    add_port,
+    declare_interfaces,
+)
 from ._log import ComponentLogger, LogRing, RecordSink
 from ._loop_state import LoopState
-from ._names import Resolver, join, validate_name
+from ._names import Resolver, join
 from ._params import ParameterStore, Params
 from ._ports import InputPort, OutputPort
 
@@ -128,7 +134,7 @@ class Component:
             port._deadline_ns = deadline_ns(deadline, where)
         # configured again: the port of the first configure, with its deadline (a launch
         # file's may have replaced the component's)
-        return self._rtcf_add_port(port, self._rtcf_inputs)
+        return add_port(self, port, self._rtcf_inputs)
 
     def add_output(self, name: str, type_: type[T], *, claim: bool = False) -> OutputPort[T]:
         """Declare an output port (in ``configure``); its topic is ``name`` resolved.
@@ -138,7 +144,7 @@ class Component:
         them active at a time (docs/controllers.md, "Claimed commands and switching").
         """
         port: OutputPort[T] = OutputPort(self.full_name, name, type_, self._rtcf_state)
-        port = self._rtcf_add_port(port, self._rtcf_outputs)
+        port = add_port(self, port, self._rtcf_outputs)
         if claim:
             self._rtcf_claims.add(name)
         return port
@@ -199,54 +205,6 @@ class Component:
         )
         self._rtcf_actions[name] = server
         return server
-
-    def _rtcf_add_port(self, port: Any, table: dict[str, Any]) -> Any:
-        if self._rtcf_redeclared is not None:
-            return self._rtcf_redeclare(port, table)
-        what = f"component {self.full_name!r}: port name"
-        if self._rtcf_configured:
-            raise ComponentError(
-                f"component {self.full_name!r}: add_input/add_output called after configure(); "
-                "declare ports in configure()",
-                component=self.full_name,
-            )
-        if not isinstance(port.type, type):
-            raise ComponentError(
-                f"component {self.full_name!r}: port {port.name!r} has type {port.type!r}, "
-                "which is not a class; pass a class such as float or a message type",
-                component=self.full_name,
-            )
-        problem = validate_name(port.name, what=what)
-        if problem:
-            raise ComponentError(problem, component=self.full_name)
-        if (port.name in self._rtcf_inputs or port.name in self._rtcf_outputs
-                or port.name in self._rtcf_bound):
-            raise ComponentError(
-                f"component {self.full_name!r}: port {port.name!r} is declared twice; "
-                "give each port a unique name",
-                component=self.full_name,
-            )
-        port.topic = self._rtcf_resolver.resolve(port.name)
-        table[port.name] = port
-        return port
-
-    def _rtcf_redeclare(self, port: Any, table: dict[str, Any]) -> Any:
-        """configure() again: the port of the first configure, if it is the same one."""
-        old = table.get(port.name)
-        redeclared = self._rtcf_redeclared
-        assert redeclared is not None
-        if old is None or old.type is not port.type or port.name in redeclared:
-            kind = "input" if isinstance(port, InputPort) else "output"
-            raise ComponentError(
-                f"component {self.full_name!r}: configure() declared the {kind} port "
-                f"{port.name!r} ({getattr(port.type, '__name__', port.type)}), which its first "
-                "configure() did not declare like this; configured again, a component must "
-                "declare the same ports (its connections were made for them): unload and load "
-                "it to change its ports",
-                component=self.full_name,
-            )
-        redeclared.add(port.name)
-        return old
 
     @property
     def inputs(self) -> dict[str, InputPort[Any]]:

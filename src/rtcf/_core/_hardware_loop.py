@@ -38,7 +38,15 @@ from ._errors import ConfigurationError
 from ._hardware import ReturnType
 from ._interface_claims import ClaimError
 from ._interface_ports import COMMAND, HardwareKeys, required_interfaces
-from ._lifecycle import STATE_LABELS
+from ._lifecycle import (
+    ACTIVE,
+    FAILURE,
+    STATE_LABELS,
+    SUCCESS,
+    UNKNOWN,
+    TransitionOutcome,
+    refused,
+)
 from ._log import ComponentLogger, LogLevel, RecordSink
 from ._loop_state import LoopState
 from ._ports import OutputPort
@@ -47,6 +55,7 @@ from ._robot_description import parse
 from ._settings import RunnerSettings
 
 _OK = ReturnType.OK
+HARDWARE_PREFIX = "@hardware/"  # a hardware's name in lifecycle requests and outcomes
 READ_LABEL = "@hardware.read"  # the schedule's two steps (timing columns)
 WRITE_LABEL = "@hardware.write"
 
@@ -199,6 +208,8 @@ class HardwareLoop:
         self._claimed: dict[str, tuple[str, ...]] = {}  # active controller -> its keys
         self._pending: list[str] = []  # hardware that failed in the last read or write
         self.deactivate: Callable[[str], object] | None = None  # a controller, by name
+        # told of each hardware's change of state (a worker tells its supervisor)
+        self.announce: Callable[[str, TransitionOutcome], None] | None = None
         self._period = 1.0 / state.frequency
 
     @classmethod
@@ -234,6 +245,9 @@ class HardwareLoop:
     def _failed(self, what: str, status: ReadWriteStatus) -> None:
         for name in status.failed_hardware_names:
             now = self.rm.components[name].state
+            if self.announce is not None:  # (a failure's path: allocations are fine)
+                self.announce(HARDWARE_PREFIX + name, TransitionOutcome(
+                    0, ACTIVE, now, SUCCESS, "", f"its {what} failed"))
             self.log.error(
                 "hardware '%s': its %s returned %s; it is %s now, and the controllers using "
                 "its interfaces are deactivated (set_hardware_component_state brings it back)",
@@ -336,6 +350,36 @@ class HardwareLoop:
 
     def claimed_interfaces(self, name: str) -> list[str]:
         return list(self.rm.claims.claimed_interfaces(controller_name(name)))
+
+    # ------------------------------------------------------------- for the supervisor
+
+    def transition(self, name: str, target: str) -> TransitionOutcome:
+        """``set_hardware_component_state`` of ``@hardware/<hardware>`` to ``target`` (a
+        lifecycle_msgs/State id or label), between iterations; announced."""
+        hardware = name.removeprefix(HARDWARE_PREFIX)
+        component = self.rm.components.get(hardware)
+        if component is None:
+            known = ", ".join(self.rm.components) or "none"
+            return refused(UNKNOWN, f"hardware component '{hardware}' does not exist "
+                                    f"(the description has: {known})")
+        before = component.state
+        ok, now = self.rm.set_hardware_component_state(
+            hardware, int(target) if target.isdigit() else target)
+        outcome = TransitionOutcome(0, before, now.id, SUCCESS if ok else FAILURE, "",
+                                    "" if ok else f"could not reach {target!r}")
+        if self.announce is not None:
+            self.announce(name, outcome)
+        return outcome
+
+    def summary(self) -> list[dict[str, Any]]:
+        """What the supervisor knows of the hardware: ``list_hardware_components``'
+        fields, each interface as (name, data type), the state as an id."""
+        return [{
+            "name": c.name, "type": c.type, "is_async": c.is_async, "rw_rate": c.rw_rate,
+            "plugin_name": c.plugin_name, "state": c.state.id,
+            "command_interfaces": [(i.name, i.data_type) for i in c.command_interfaces],
+            "state_interfaces": [(i.name, i.data_type) for i in c.state_interfaces],
+        } for c in self.rm.list_hardware_components()]
 
     # ------------------------------------------------------------- the end
 

@@ -26,6 +26,7 @@ from typing import Any, NamedTuple
 import numpy as np
 
 from ._errors import ComponentError
+from ._names import validate_name
 from ._ports import InputPort, OutputPort
 
 STATE = "state"
@@ -78,7 +79,7 @@ def declare_interfaces(component: Any, name: str, kind: str, keys: Sequence[str]
             port = InputPort(component.full_name, name, np.ndarray)
         else:
             port = OutputPort(component.full_name, name, np.ndarray, component._rtcf_state)
-        port = component._rtcf_add_port(port, component._rtcf_bound)
+        port = add_port(component, port, component._rtcf_bound)
     component._rtcf_interfaces[name] = InterfacePorts(kind, given, port)
     return port
 
@@ -90,3 +91,54 @@ def required_interfaces(component: Any) -> tuple[list[str], list[str]]:
     for ports in component._rtcf_interfaces.values():
         (commands if ports.kind == COMMAND else states).update(k for k in ports.keys if k)
     return sorted(commands), sorted(states)
+
+
+def add_port(self: Any, port: Any, table: dict[str, Any]) -> Any:
+    """A port declared by ``self`` (a component) in ``table``: named, checked, resolved;
+    configured again, the port of the first configure (``_redeclare``)."""
+    if self._rtcf_redeclared is not None:
+        return _redeclare(self, port, table)
+    what = f"component {self.full_name!r}: port name"
+    if self._rtcf_configured:
+        raise ComponentError(
+            f"component {self.full_name!r}: add_input/add_output called after configure(); "
+            "declare ports in configure()",
+            component=self.full_name,
+        )
+    if not isinstance(port.type, type):
+        raise ComponentError(
+            f"component {self.full_name!r}: port {port.name!r} has type {port.type!r}, "
+            "which is not a class; pass a class such as float or a message type",
+            component=self.full_name,
+        )
+    problem = validate_name(port.name, what=what)
+    if problem:
+        raise ComponentError(problem, component=self.full_name)
+    if (port.name in self._rtcf_inputs or port.name in self._rtcf_outputs
+            or port.name in self._rtcf_bound):
+        raise ComponentError(
+            f"component {self.full_name!r}: port {port.name!r} is declared twice; "
+            "give each port a unique name",
+            component=self.full_name,
+        )
+    port.topic = self._rtcf_resolver.resolve(port.name)
+    table[port.name] = port
+    return port
+
+def _redeclare(self: Any, port: Any, table: dict[str, Any]) -> Any:
+    """configure() again: the port of the first configure, if it is the same one."""
+    old = table.get(port.name)
+    redeclared = self._rtcf_redeclared
+    assert redeclared is not None
+    if old is None or old.type is not port.type or port.name in redeclared:
+        kind = "input" if isinstance(port, InputPort) else "output"
+        raise ComponentError(
+            f"component {self.full_name!r}: configure() declared the {kind} port "
+            f"{port.name!r} ({getattr(port.type, '__name__', port.type)}), which its first "
+            "configure() did not declare like this; configured again, a component must "
+            "declare the same ports (its connections were made for them): unload and load "
+            "it to change its ports",
+            component=self.full_name,
+        )
+    redeclared.add(port.name)
+    return old

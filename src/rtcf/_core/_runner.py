@@ -33,7 +33,7 @@ from ._errors import ComponentError, RtcfError
 from ._executor import StopFlag
 from ._faults import Fault, SafeStopOutcome
 from ._graph import Graph, GraphNode
-from ._hardware_loop import HardwareLoop
+from ._hardware_loop import HARDWARE_PREFIX, HardwareLoop
 from ._lanes import Lane, Member, Step
 from ._lifecycle import TransitionOutcome
 from ._log import LogLevel, LogRecord, LogRing, PythonLoggingSink, RecordSink
@@ -132,6 +132,7 @@ class Runner:
             self._schedule.hardware = self._transitions.hardware = self.hardware
             self.hardware.deactivate = lambda n: self._transitions.change(n, "deactivate")
             self._loop.hardware_feeder = self.hardware.feeder
+            self.hardware.announce = self._transitions.announce
 
     # -- what is loaded, and how it is wired (Components) ---------------------------
     @property
@@ -208,6 +209,8 @@ class Runner:
         A lifecycle transition (``name`` the transition) returns its outcome.
         """
         if kind == LIFECYCLE:
+            if component.startswith(HARDWARE_PREFIX) and self.hardware is not None:
+                return self.hardware.transition(component, name)  # a hardware's state
             return self._transitions.change(component, name)
         # (applied here rather than by a call into Components: it runs in the loop)
         entry = self._components.entries.get(component)

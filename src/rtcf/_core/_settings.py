@@ -379,6 +379,19 @@ def parameter_help() -> list[tuple[str, str, str]]:
 _IGNORED: set[str] = set()
 
 
+def set_initial_states(settings: RunnerSettings, params: Mapping[str, Any]) -> None:
+    """``hardware_components_initial_state.*`` of a controller manager's parameters
+    (its YAML section) onto ``settings``."""
+    for key, value in _flat_initial_state(params).items():
+        if key in _FIELDS:
+            try:
+                setattr(settings, _FIELDS[key], _names(value))
+            except ValueError:
+                raise ConfigurationError(
+                    f"parameter {key!r} has value {value!r}, which is not "
+                    f"{_EXPECTED[key]}") from None
+
+
 def _names(v: Any) -> tuple[str, ...]:
     """A list of names (or one string of them split at whitespace or commas)."""
     if isinstance(v, str):
