@@ -112,11 +112,14 @@ class DiffDriveController(rtcf.Component):
                                            (odometry, transform, tf_message))
 
         self.cmd_vel = self.add_input("~cmd_vel", twist)
-        self.velocity_command = self.add_output("velocity_command", np.ndarray, claim=True)
+        wheels = [*self.left_names, *self.right_names]  # ros2_control's <wheel>/<interface>
+        self.velocity_command = self.add_command_interfaces(
+            "velocity_command", [f"{wheel}/velocity" for wheel in wheels])
         self.feedback = None
         if not self.open_loop:
             interface = "position" if self.position_feedback else "velocity"
-            self.feedback = self.add_input(interface, np.ndarray)
+            self.feedback = self.add_state_interfaces(
+                interface, [f"{wheel}/{interface}" for wheel in wheels])
         self.publisher.add_ports()  # ~odom and /tf
         self.cmd_vel_out = (
             self.add_output("~cmd_vel_out", twist) if self.publish_limited_velocity else None

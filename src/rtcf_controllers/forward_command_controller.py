@@ -54,7 +54,10 @@ class ForwardCommandController(rtcf.Component):
         self.interface_name = interface
         message = message_class(self, "std_msgs.msg", "Float64MultiArray")
         self.commands = self.add_input("~/commands", message)
-        self.command = self.add_output(f"{interface}_command", np.ndarray, claim=True)
+        # ros2_control's command interfaces <joint>/<interface_name>: bound to the
+        # hardware when the run has some, else the claimed topic <interface>_command
+        self.command = self.add_command_interfaces(
+            f"{interface}_command", [f"{joint}/{interface}" for joint in self.joints])
         self.value: np.ndarray | None = None
         self.refused = Throttled(self)
         self.refused_messages = {"~/commands": 0}  # what was refused, for tests and reports

@@ -54,14 +54,26 @@ class JointStateBroadcaster(rtcf.Component):
             self.log.nonrt.warning("frame_id is empty: the messages carry none")
         # a field named in `interfaces` is read from that interface itself (ros2's rule)
         source = {f: f if f in interfaces else mapped[f] for f in FIELDS}
-        if joints and interfaces:
+        hardware = self.hardware
+        present: set[str] | None = None  # (every interface: a joint may lack one)
+        if hardware is not None and not (joints and interfaces):
+            present = set(hardware.state_keys)
+            # every state interface of the hardware, as ros2_controllers' JSB without
+            # joints and interfaces: the joints with a JointState field's interface
+            joints, names = all_interfaces(hardware.state_keys, set(source.values()))
+        elif joints and interfaces:
             names = interfaces
         else:
             names = list(dict.fromkeys(source.values()))
         # what dynamic_joint_states calls each: a mapped interface by its field's name
         shown = {source[f]: f for f in FIELDS}
         self.interfaces = [shown.get(name, name) for name in names]
-        self.ports = [self.add_input(name, np.ndarray) for name in names]
+        if joints:  # ros2_control's <joint>/<interface> keys ("": that joint has none)
+            self.ports = [self.add_state_interfaces(
+                name, [f"{j}/{name}" if present is None or f"{j}/{name}" in present else ""
+                       for j in joints]) for name in names]
+        else:  # no joint named: arrays whose length names them
+            self.ports = [self.add_input(name, np.ndarray) for name in names]
         # which port's values each JointState field carries (-1: none, NaN)
         self.field_port = [names.index(source[f]) if source[f] in names else -1 for f in FIELDS]
         prefix = "~/" if local else ""
@@ -164,3 +176,15 @@ class JointStateBroadcaster(rtcf.Component):
             column[:] = values
         self.dynamic_joint_states.write(dynamic)
 
+
+def all_interfaces(keys: tuple[str, ...], fields: set[str]) -> tuple[list[str], list[str]]:
+    """(joints, interfaces) of every state interface ``keys``: the prefixes that have one
+    of ``fields`` (JointState's position, velocity, effort, as mapped), in the keys'
+    order, and every interface name those have."""
+    by_joint: dict[str, list[str]] = {}
+    for key in keys:
+        joint, _, interface = key.rpartition("/")
+        by_joint.setdefault(joint, []).append(interface)
+    joints = [j for j, names in by_joint.items() if fields.intersection(names)]
+    interfaces = list(dict.fromkeys(i for j in joints for i in by_joint[j]))
+    return joints, interfaces

@@ -45,9 +45,12 @@ class JointTrajectoryController(rtcf.Component):
         self.pid = cfg.pid
 
         # ports: ros2_control's interfaces, and the controller's topics and action
-        self.state_in = {s: self.add_input(s, np.ndarray) for s in self.cfg.state_interfaces}
-        self.command_out = {c: self.add_output(f"{c}_command", np.ndarray, claim=True)
-                            for c in self.cfg.command_interfaces}
+        # ros2_control's <joint>/<interface> keys: the hardware's when the run has some
+        self.state_in = {s: self.add_state_interfaces(s, [f"{j}/{s}" for j in joints])
+                         for s in self.cfg.state_interfaces}
+        self.command_out = {
+            c: self.add_command_interfaces(f"{c}_command", [f"{j}/{c}" for j in joints])
+            for c in self.cfg.command_interfaces}
         self.trajectory_in = self.add_input("~/joint_trajectory", JointTrajectory)
         self.state_out = self.add_output("~/controller_state", JointTrajectoryControllerState)
         # one goal runs at a time: a newer one preempts it (accept(preempt=...))

@@ -89,11 +89,13 @@ class PidController(rtcf.Component):
         self.measured_port = (
             self.add_input("~/measured_state", command_msg) if external else None
         )
+        # ros2_control's keys: <reference_and_state_dof>/<interface>, <dof>/<command>
         self.state_ports = [] if external else [
-            self.add_input(name, np.ndarray) for name in interfaces
+            self.add_state_interfaces(name, [f"{dof}/{name}" for dof in state_dofs])
+            for name in interfaces
         ]
-        self.command_port = self.add_output(
-            f"{command_interface}_command", np.ndarray, claim=True)
+        self.command_port = self.add_command_interfaces(
+            f"{command_interface}_command", [f"{dof}/{command_interface}" for dof in self.dofs])
         self.controller_state = self.add_output("~/controller_state", self.state_msg)
         self.index = {name: k for k, name in enumerate(state_dofs)}
         self.refused = Throttled(self)  # each kind of problem rate-limited on its own

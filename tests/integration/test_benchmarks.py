@@ -17,6 +17,7 @@ pytestmark = pytest.mark.integration
         ("scaling", re.compile(r"\| 1000 +\| 200 +\| pure ")),
         ("channels", "| mailbox try_read_into "),
         ("lanes", "| LET lane "),
+        ("hardware_loop", re.compile(r"(?s)\| 96 +\| \d+\.\d+ +\| \d+\.\d+ .*\| plain +\| ")),
         # every system's row on both hot paths (a number in each column), and the fit
         (
             "command_limits",

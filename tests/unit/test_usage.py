@@ -6,12 +6,13 @@ import dataclasses
 
 import pytest
 
-from rtcf._core._settings import RunnerSettings, parameter_help
+from rtcf._core._settings import _FIELDS, RunnerSettings, parameter_help
 from rtcf._runtime._usage import asks_for_help, launcher_usage, runner_usage
 
 
 def test_the_runners_help_lists_every_setting_with_its_default() -> None:
-    rows = {name: (default, meaning) for name, default, meaning in parameter_help()}
+    rows = {_FIELDS.get(name, name): (default, meaning)  # (dotted names: their fields)
+            for name, default, meaning in parameter_help()}
     fields = {f.name for f in dataclasses.fields(RunnerSettings) if f.name != "notes"}
     assert set(rows) == fields  # a new setting without a line in the help fails here
     assert rows["frequency"][0] == "1.0" and rows["priority"][0] == "80"

@@ -45,7 +45,7 @@ import numpy as np
 
 from ._errors import ComponentError, ConfigurationError
 from ._hotpath import CommandCheck
-from ._ports import InputPort
+from ._ports import InputPort, OutputPort
 
 # a component (rtcf._core._component imports this module): its params, log, time_ns
 Component = Any
@@ -179,15 +179,19 @@ class CommandGuard:
         "nan", "port", "seen",
     )
 
-    def __init__(self, component: Component, port: InputPort[Any], interface: str,
-                 joints: Sequence[str], limits: Sequence[JointLimits]) -> None:
+    def __init__(self, component: Component, port: InputPort[Any] | OutputPort[Any],
+                 interface: str | Sequence[str], joints: Sequence[str],
+                 limits: Sequence[JointLimits]) -> None:
         n = len(joints)
         self._component = component
-        self.port = port
-        self.interface = interface
+        self.port = port  # a command input, or a controller's output of hardware commands
+        # one interface for every joint, or one each (a port of hardware interfaces)
+        each = [interface] * n if isinstance(interface, str) else list(interface)
+        self.interface = interface if isinstance(interface, str) else "/".join(
+            dict.fromkeys(each))
         self.joints = tuple(joints)
         self.limits = tuple(limits)
-        bounds = [lim.bounds(interface) for lim in limits]
+        bounds = [lim.bounds(i) for lim, i in zip(limits, each, strict=True)]
         self._lo = np.array([b[0] for b in bounds], dtype=float)
         self._hi = np.array([b[1] for b in bounds], dtype=float)
         self._rate = np.array([b[2] for b in bounds], dtype=float)
@@ -275,7 +279,8 @@ class CommandGuard:
         else:
             self.nan += 1
         self._hold(slot, 2 if infinite else 1, given)
-        return infinite and self.port.producer is not None
+        # the writer is known: a component of the runner (an output's is its own)
+        return infinite and getattr(self.port, "producer", self.port) is not None
 
     def _hold(self, slot: Any, kind: int, value: Any) -> None:
         slot.value = self.last  # the previous command again (None: there was none)
@@ -305,7 +310,7 @@ class CommandGuard:
         if kind in (1, 2):
             bad = [f"{j} {float(v)}" for j, v in zip(joints, value, strict=True)
                    if not math.isfinite(v)]
-            whose = "" if kind == 1 or port.producer is None else (
+            whose = "" if kind == 1 or getattr(port, "producer", port) is None else (
                 "; a fault of the component that wrote it")
             return (f"{where}: {self.interface} command refused, not finite ({', '.join(bad)})"
                     f"; the previous command is held{whose}")

@@ -27,11 +27,18 @@ from typing import Any, TypeVar
 from ._action_protocol import ActionEvent, ActionRequest
 from ._actions import ActionServer, check_action
 from ._command_limits import CommandGuard, JointLimits, declare_command_input
-from ._errors import ComponentError
 from ._faults import deadline_ns
+from ._interface_ports import (
+    COMMAND,
+    STATE,
+    HardwareKeys,
+    InterfacePorts,
+    add_port,
+    declare_interfaces,
+)
 from ._log import ComponentLogger, LogRing, RecordSink
 from ._loop_state import LoopState
-from ._names import Resolver, join, validate_name
+from ._names import Resolver, join
 from ._params import ParameterStore, Params
 from ._ports import InputPort, OutputPort
 
@@ -53,6 +60,11 @@ class Component:
     _rtcf_claims: set[str]  # names of the outputs declared claim=True
     _rtcf_actions: dict[str, ActionServer]
     _rtcf_guards: dict[str, CommandGuard]  # command inputs' checks, by port name
+    # ports that are hardware interfaces (their keys), and those bound to the run's
+    # hardware (no topics: kept out of _rtcf_inputs/_rtcf_outputs)
+    _rtcf_interfaces: dict[str, InterfacePorts]
+    _rtcf_bound: dict[str, Any]
+    _rtcf_hardware: HardwareKeys | None = None  # the run's hardware (None: none)
     _rtcf_configured: bool
     _rtcf_every: int = 1  # runs every this many iterations (its launcher's rate or every)
     # while configure runs again (lifecycle): the port names declared so far
@@ -122,7 +134,7 @@ class Component:
             port._deadline_ns = deadline_ns(deadline, where)
         # configured again: the port of the first configure, with its deadline (a launch
         # file's may have replaced the component's)
-        return self._rtcf_add_port(port, self._rtcf_inputs)
+        return add_port(self, port, self._rtcf_inputs)
 
     def add_output(self, name: str, type_: type[T], *, claim: bool = False) -> OutputPort[T]:
         """Declare an output port (in ``configure``); its topic is ``name`` resolved.
@@ -132,7 +144,7 @@ class Component:
         them active at a time (docs/controllers.md, "Claimed commands and switching").
         """
         port: OutputPort[T] = OutputPort(self.full_name, name, type_, self._rtcf_state)
-        port = self._rtcf_add_port(port, self._rtcf_outputs)
+        port = add_port(self, port, self._rtcf_outputs)
         if claim:
             self._rtcf_claims.add(name)
         return port
@@ -147,6 +159,31 @@ class Component:
         checked before each ``update``: a non-finite one is never passed on, one outside
         ``limits`` is clamped (docs/hardware-limits.md)."""
         return declare_command_input(self, name, interface, joints, limits, deadline)
+
+    def add_state_interfaces(
+        self, name: str, keys: Sequence[str], *, deadline: float | None = None
+    ) -> InputPort[Any]:
+        """Declare an input of hardware state interfaces (in ``configure``): a float64
+        array, a value per key (``"joint1/position"``) in the order of ``keys``; an empty
+        key is a place with no interface (NaN). When the run has hardware (a robot
+        description), the values come from it before each ``update``, with no topic and
+        no remap; without, it is the input ``name`` of ``np.ndarray``
+        (docs/hardware.md#controllers-and-interfaces)."""
+        return declare_interfaces(self, name, STATE, keys, deadline)
+
+    def add_command_interfaces(self, name: str, keys: Sequence[str]) -> OutputPort[Any]:
+        """Declare an output of hardware command interfaces (in ``configure``): write a
+        float64 array, a value per key in the order of ``keys``. When the run has
+        hardware, what ``update`` wrote goes to those interfaces after it (checked
+        against the description's limits), and activation claims the keys; without, it
+        is the claimed output ``name`` of ``np.ndarray``."""
+        return declare_interfaces(self, name, COMMAND, keys)
+
+    @property
+    def hardware(self) -> HardwareKeys | None:
+        """The run's hardware interfaces (``state_keys``, ``command_keys``), or None when
+        the run has no hardware."""
+        return self._rtcf_hardware
 
     def add_action_server(
         self, name: str, action_type: type, *, max_goals: int = 1
@@ -168,53 +205,6 @@ class Component:
         )
         self._rtcf_actions[name] = server
         return server
-
-    def _rtcf_add_port(self, port: Any, table: dict[str, Any]) -> Any:
-        if self._rtcf_redeclared is not None:
-            return self._rtcf_redeclare(port, table)
-        what = f"component {self.full_name!r}: port name"
-        if self._rtcf_configured:
-            raise ComponentError(
-                f"component {self.full_name!r}: add_input/add_output called after configure(); "
-                "declare ports in configure()",
-                component=self.full_name,
-            )
-        if not isinstance(port.type, type):
-            raise ComponentError(
-                f"component {self.full_name!r}: port {port.name!r} has type {port.type!r}, "
-                "which is not a class; pass a class such as float or a message type",
-                component=self.full_name,
-            )
-        problem = validate_name(port.name, what=what)
-        if problem:
-            raise ComponentError(problem, component=self.full_name)
-        if port.name in self._rtcf_inputs or port.name in self._rtcf_outputs:
-            raise ComponentError(
-                f"component {self.full_name!r}: port {port.name!r} is declared twice; "
-                "give each port a unique name",
-                component=self.full_name,
-            )
-        port.topic = self._rtcf_resolver.resolve(port.name)
-        table[port.name] = port
-        return port
-
-    def _rtcf_redeclare(self, port: Any, table: dict[str, Any]) -> Any:
-        """configure() again: the port of the first configure, if it is the same one."""
-        old = table.get(port.name)
-        redeclared = self._rtcf_redeclared
-        assert redeclared is not None
-        if old is None or old.type is not port.type or port.name in redeclared:
-            kind = "input" if table is self._rtcf_inputs else "output"
-            raise ComponentError(
-                f"component {self.full_name!r}: configure() declared the {kind} port "
-                f"{port.name!r} ({getattr(port.type, '__name__', port.type)}), which its first "
-                "configure() did not declare like this; configured again, a component must "
-                "declare the same ports (its connections were made for them): unload and load "
-                "it to change its ports",
-                component=self.full_name,
-            )
-        redeclared.add(port.name)
-        return old
 
     @property
     def inputs(self) -> dict[str, InputPort[Any]]:
@@ -295,6 +285,7 @@ def _attach(
     state: LoopState,
     emit: Callable[[int, str, str, int, int], None] | None = None,
     every: int = 1,
+    hardware: HardwareKeys | None = None,
 ) -> None:
     """Give ``component`` its identity and its access to the runner (before __init__)."""
     component.name = name
@@ -309,6 +300,9 @@ def _attach(
     component._rtcf_claims = set()
     component._rtcf_actions = {}
     component._rtcf_guards = {}
+    component._rtcf_interfaces = {}
+    component._rtcf_bound = {}
+    component._rtcf_hardware = hardware
     component._rtcf_configured = False
     component._rtcf_every = every
 

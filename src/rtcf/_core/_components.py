@@ -21,6 +21,7 @@ from ._component import Component, _attach, overrides
 from ._errors import ComponentError, ConfigurationError, Location, RtcfError
 from ._faults import FailurePolicy
 from ._graph import GraphNode, PortInfo
+from ._interface_ports import HardwareKeys, required_interfaces
 from ._lane_names import validate_lane_name
 from ._lanes import Member, lane_of
 from ._lifecycle import INACTIVE, STATE_LABELS
@@ -103,6 +104,7 @@ class Components:
         self.notices = notices
         self.log_level = log_level  # a component's start level, unless its spec says
         self.entries: dict[str, Loaded] = {}
+        self.hardware: HardwareKeys | None = None  # the run's hardware interfaces, if any
 
     def by_name(self) -> dict[str, Component]:
         return {n: entry.component for n, entry in self.entries.items()}
@@ -173,6 +175,7 @@ class Components:
             state=self.state,
             emit=self.notices.emit,
             every=every,
+            hardware=self.hardware,
         )
         component.log.set_level(self.log_level if spec.log_level is None else spec.log_level)
         try:
@@ -235,6 +238,8 @@ class Components:
             "ros2_control_type": str(getattr(type(comp), "ros2_control_type", "")),
             "lifecycle": STATE_LABELS[entry.state],
             "claims": claimed_topics(comp),  # its claimed command topics
+            # its ports of hardware interfaces: (command keys, state keys)
+            "interfaces": required_interfaces(comp),
         }
 
     def connections(self, maps: Callable[[str], bool]) -> list[dict[str, Any]]:

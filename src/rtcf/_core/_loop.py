@@ -96,6 +96,8 @@ class Loop:
         self.stop_flag = stop_flag if stop_flag is not None else StopFlag()
         self._timing_capacity = timing_capacity
         self.triggered = False  # mode wait_for_trigger: activated
+        # the hardware's feeder: controllers of a hardware that failed are deactivated
+        self.hardware_feeder: Callable[[], object] | None = None
 
     def not_ready_reason(self) -> str | None:
         s, n = self._settings, self._topology.count()  # (with lanes, every lane's count)
@@ -140,7 +142,9 @@ class Loop:
         watch = self._deadlines
         events_before = len(watch.events)
         # last: after the middleware's messages, before the first update
-        executor.feeders = tuple(feeders) + ((watch.gate,) if watch.refresh() else ())
+        hardware = (self.hardware_feeder,) if self.hardware_feeder is not None else ()
+        executor.feeders = (tuple(feeders) + hardware
+                            + ((watch.gate,) if watch.refresh() else ()))
         executor.ros_offset_ns = ros_offset_ns
         executor.idle = self._idle_hook(
             on_iteration, drain_logs_every_iteration, aggregate, timing_ring

@@ -171,7 +171,9 @@ class ResourceManager:
         rw_rate = info.rw_rate
         if rw_rate == 0 or rw_rate > self.update_rate:
             rw_rate = self.update_rate
-        logger = logging.getLogger(f"{getattr(self.logger, 'name', 'rtcf')}.{info.name}")
+        child = getattr(self.logger, "getChild", None)  # a worker's: its log ring
+        logger = child(info.name) if child is not None else logging.getLogger(
+            f"{getattr(self.logger, 'name', 'rtcf')}.{info.name}")
         component = HardwareComponent(impl, info, rw_rate, logger)
         if component.initialize() != UNCONFIGURED:
             raise ConfigurationError(

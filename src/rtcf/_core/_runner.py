@@ -33,6 +33,7 @@ from ._errors import ComponentError, RtcfError
 from ._executor import StopFlag
 from ._faults import Fault, SafeStopOutcome
 from ._graph import Graph, GraphNode
+from ._hardware_loop import HARDWARE_PREFIX, HardwareLoop
 from ._lanes import Lane, Member, Step
 from ._lifecycle import TransitionOutcome
 from ._log import LogLevel, LogRecord, LogRing, PythonLoggingSink, RecordSink
@@ -83,6 +84,9 @@ class Runner:
             log_emit,
         )
         level = LogLevel[log_level.upper()] if isinstance(log_level, str) else log_level
+        # the robot description's hardware, built here: in a worker, the loop's process
+        self.hardware = HardwareLoop.from_settings(
+            self.settings, self.state, self._notices.ring, name)
         # the collaborators, each given what it needs (none sees the runner itself)
         self._components = Components(
             self.settings, self.parameters, self.state, self._notices, level
@@ -123,6 +127,12 @@ class Runner:
             stop_flag=stop_flag,
             timing_capacity=timing_capacity,
         )
+        if self.hardware is not None:
+            self._components.hardware = self.hardware.keys
+            self._schedule.hardware = self._transitions.hardware = self.hardware
+            self.hardware.deactivate = lambda n: self._transitions.change(n, "deactivate")
+            self._loop.hardware_feeder = self.hardware.feeder
+            self.hardware.announce = self._transitions.announce
 
     # -- what is loaded, and how it is wired (Components) ---------------------------
     @property
@@ -199,6 +209,8 @@ class Runner:
         A lifecycle transition (``name`` the transition) returns its outcome.
         """
         if kind == LIFECYCLE:
+            if component.startswith(HARDWARE_PREFIX) and self.hardware is not None:
+                return self.hardware.transition(component, name)  # a hardware's state
             return self._transitions.change(component, name)
         # (applied here rather than by a call into Components: it runs in the loop)
         entry = self._components.entries.get(component)
@@ -512,4 +524,7 @@ class Runner:
         entries = [loaded[n] for n in reversed(self._topology.stopping_order()) if n in loaded]
         self._components.entries.clear()
         self._invalidate()
-        return self._transitions.teardown(entries)
+        errors = self._transitions.teardown(entries)
+        if self.hardware is not None:
+            self.hardware.shutdown()
+        return errors

@@ -20,6 +20,7 @@ from ._command_limits import CommandGuard, Counters, Guarded
 from ._component import Component
 from ._components import Components
 from ._executor import Executor
+from ._hardware_loop import READ_LABEL, WRITE_LABEL, HardwareLoop
 from ._lanes import LET_OUT, SEND, UPDATE, Lane, LocalLet, Member, Step, lane_of, lanes_of
 from ._lifecycle import ACTIVE
 from ._loop_state import LoopState
@@ -63,6 +64,9 @@ class Schedule:
         # the totals of the command inputs' guards (a worker shares them with its
         # supervisor)
         self.commands = Counters()
+        # the robot description's hardware: read first, written last, bound to the
+        # components' interface ports (rtcf._core._hardware_loop); None: none
+        self.hardware: HardwareLoop | None = None
         self._let_slots: dict[tuple[str, str], Slot] = {}  # in-process LET (lane, topic)
         self._visible: dict[str, Slot] = {}  # LET outputs as the other lanes see them
 
@@ -195,6 +199,9 @@ class Schedule:
             always.append(pin)
 
         self._visible = {}
+        hardware = self.hardware
+        if hardware is not None:  # ros2_control's order: read, the controllers, write
+            add(READ_LABEL, hardware.read, (1, 0), True)
         if self.lane is None:  # every lane here, one after the other: the reference
             local = self._local_let(let, members)
             if local is not None:
@@ -220,6 +227,8 @@ class Schedule:
                     add(step.label, self.handovers(step, at), (1, 0), True)
                 else:  # compiled to name the columns; the runtime binds the handovers
                     add(step.label, _unbound(step), (1, 0), True)
+        if hardware is not None:
+            add(WRITE_LABEL, hardware.write, (1, 0), True)
         self.labels = labels
         executor = Executor(
             updates,
@@ -246,16 +255,20 @@ class Schedule:
         """A component's step: its update, behind its command inputs' guards if it has
         any (rtcf._core._command_limits)."""
         guards = list(component._rtcf_guards.values())
-        if not guards:
-            return component.update
-        for guard in guards:
-            guard.prepare(component.period, self.commands)
-        return Guarded(component.full_name, component.update, guards)
+        step: Callable[[], object] = component.update
+        if guards:
+            for guard in guards:
+                guard.prepare(component.period, self.commands)
+            step = Guarded(component.full_name, component.update, guards)
+        if self.hardware is not None and component._rtcf_bound:
+            step = self.hardware.bind(component, step, self.commands)
+        return step
 
     def guards(self) -> list[CommandGuard]:
         """Every loaded component's command input guards, in load order."""
-        return [g for e in self._components.entries.values()
-                for g in e.component._rtcf_guards.values()]
+        own = [g for e in self._components.entries.values()
+               for g in e.component._rtcf_guards.values()]
+        return own + (list(self.hardware.guards.values()) if self.hardware else [])
 
     def _active_flags(self) -> list[bool]:
         loaded = self._components.entries

@@ -58,6 +58,11 @@ class RunnerSettings:
     requests are refused); ``all`` (tunables too). ``allowed_modules``: full-match
     regexes (a list, or one string split at whitespace) that a loaded component's
     module must match, checked before it is imported; empty: any module.
+    ``robot_description`` (the URDF's text) or ``robot_description_file`` (its path):
+    the robot whose ``<ros2_control>`` hardware the loop reads and writes
+    (docs/hardware.md); ``hardware_components_initial_state.unconfigured`` /
+    ``.inactive``: hardware left in that state at start (the others are activated), as
+    ros2_control's controller manager reads them.
     """
 
     mode: str = "no_wait"
@@ -88,6 +93,10 @@ class RunnerSettings:
     lanes: str = ""
     lock: str = "none"
     allowed_modules: tuple[str, ...] = ()
+    robot_description: str = field(default="", repr=False)
+    robot_description_file: str = ""
+    hardware_initial_unconfigured: tuple[str, ...] = ()
+    hardware_initial_inactive: tuple[str, ...] = ()
     notes: list[str] = field(default_factory=list, compare=False)
 
     def __post_init__(self) -> None:
@@ -179,7 +188,7 @@ class RunnerSettings:
         """Read settings from a runner node's private parameters (unknown ones noted)."""
         notes: list[str] = []
         values: dict[str, Any] = {}
-        for key, value in params.items():
+        for key, value in _flat_initial_state(params).items():
             if key not in _CONVERTERS:
                 if key not in _IGNORED:
                     notes.append(
@@ -188,7 +197,7 @@ class RunnerSettings:
                     )
                 continue
             try:
-                values[key] = _CONVERTERS[key](value)
+                values[_FIELDS.get(key, key)] = _CONVERTERS[key](value)
             except (TypeError, ValueError):
                 raise ConfigurationError(
                     f"{where}: parameter {key!r} has value {value!r}, which is not {_EXPECTED[key]}"
@@ -273,6 +282,15 @@ _CONVERTERS = {
     "lanes": lambda v: _lanes_text(v),
     "lock": _to_str,
     "allowed_modules": lambda v: _regex_list(v),
+    "robot_description": _to_str,
+    "robot_description_file": _to_str,
+    "hardware_components_initial_state.unconfigured": lambda v: _names(v),
+    "hardware_components_initial_state.inactive": lambda v: _names(v),
+}
+# parameters whose field has another name (ros2_control's dotted ones)
+_FIELDS = {
+    "hardware_components_initial_state.unconfigured": "hardware_initial_unconfigured",
+    "hardware_components_initial_state.inactive": "hardware_initial_inactive",
 }
 _EXPECTED = {
     "mode": "a string",
@@ -303,6 +321,10 @@ _EXPECTED = {
     "lock": "none, structure or all",
     "allowed_modules": "a list of regular expressions (or one string of them split at "
                        "whitespace)",
+    "robot_description": "a string (the URDF)",
+    "robot_description_file": "a string (the URDF's path)",
+    "hardware_components_initial_state.unconfigured": "a list of hardware names",
+    "hardware_components_initial_state.inactive": "a list of hardware names",
 }
 # one line each, for rt_runner --help (docs/runner.md has the whole story)
 _MEANING = {
@@ -334,6 +356,10 @@ _MEANING = {
     "lock": "none, structure (no load, unload, lifecycle once running) or all (tunables "
             "too)",
     "allowed_modules": "regexes a loaded component's module must match (empty: any)",
+    "robot_description": "the robot's URDF, whose <ros2_control> hardware the loop runs",
+    "robot_description_file": "the path of that URDF (when robot_description is empty)",
+    "hardware_components_initial_state.unconfigured": "hardware left unconfigured at start",
+    "hardware_components_initial_state.inactive": "hardware left inactive at start",
 }
 
 
@@ -342,7 +368,7 @@ def parameter_help() -> list[tuple[str, str, str]]:
     fields = RunnerSettings.__dataclass_fields__
     out = []
     for name in _CONVERTERS:
-        default = fields[name].default
+        default = fields[_FIELDS.get(name, name)].default
         shown = "" if default in ("", None, ()) else (
             str(default).lower() if isinstance(default, bool) else str(default))
         out.append((name, shown, _MEANING[name]))
@@ -351,6 +377,40 @@ def parameter_help() -> list[tuple[str, str, str]]:
 
 # parameters a runner node may carry that are not settings
 _IGNORED: set[str] = set()
+
+
+def set_initial_states(settings: RunnerSettings, params: Mapping[str, Any]) -> None:
+    """``hardware_components_initial_state.*`` of a controller manager's parameters
+    (its YAML section) onto ``settings``."""
+    for key, value in _flat_initial_state(params).items():
+        if key in _FIELDS:
+            try:
+                setattr(settings, _FIELDS[key], _names(value))
+            except ValueError:
+                raise ConfigurationError(
+                    f"parameter {key!r} has value {value!r}, which is not "
+                    f"{_EXPECTED[key]}") from None
+
+
+def _names(v: Any) -> tuple[str, ...]:
+    """A list of names (or one string of them split at whitespace or commas)."""
+    if isinstance(v, str):
+        return tuple(v.replace(",", " ").split())
+    if isinstance(v, (list, tuple)) and all(isinstance(x, str) for x in v):
+        return tuple(x for x in v if x)
+    raise ValueError(v)
+
+
+def _flat_initial_state(params: Mapping[str, Any]) -> Mapping[str, Any]:
+    """``hardware_components_initial_state`` given as a mapping (a YAML's nesting)
+    read as its dotted parameters."""
+    nested = params.get("hardware_components_initial_state")
+    if not isinstance(nested, Mapping):
+        return params
+    flat = {k: v for k, v in params.items() if k != "hardware_components_initial_state"}
+    for key, value in nested.items():
+        flat[f"hardware_components_initial_state.{key}"] = value
+    return flat
 
 
 def _regex_list(v: Any) -> tuple[str, ...]:

@@ -16,6 +16,7 @@ from ._actions import abort_open
 from ._claims import activation_conflict, start_conflict
 from ._components import Components, Loaded
 from ._errors import ComponentError, ConfigurationError
+from ._hardware_loop import HardwareLoop
 from ._lifecycle import (
     ACTIVATE,
     ACTIVE,
@@ -65,6 +66,9 @@ class Transitions:
         self._replan = replan
         # told of every lifecycle change of a component: a transition, a fault's take-out
         self.listeners: list[Callable[[str, TransitionOutcome], None]] = []
+        # the run's hardware: activation claims a component's command interfaces, every
+        # way out of active releases them (rtcf._core._hardware_loop)
+        self.hardware: HardwareLoop | None = None
 
     def state_of(self, name: str) -> str:
         """A loaded component's lifecycle state: ``active``, ``inactive``, ``unconfigured``
@@ -83,6 +87,8 @@ class Transitions:
             transition = int(transition)
         tid = resolve_transition(entry.state, transition)
         conflict = activation_conflict(loaded, full) if tid == ACTIVATE else ""
+        if not conflict and tid == ACTIVATE and self.hardware is not None:
+            conflict = self.hardware.claim(full, entry.component)  # its interfaces' keys
         if conflict:  # its claimed command topic is another active component's
             outcome = refused(entry.state, conflict)
         elif tid is None:
@@ -108,6 +114,8 @@ class Transitions:
         return outcome
 
     def announce(self, name: str, outcome: TransitionOutcome) -> None:
+        if self.hardware is not None and outcome.end != ACTIVE:
+            self.hardware.release(name)
         for listener in self.listeners:
             listener(name, outcome)
 
@@ -131,6 +139,10 @@ class Transitions:
             )
         for name in starting:
             entry = loaded[name]
+            problem = self.hardware.claim(name, entry.component) if self.hardware else ""
+            if problem:  # as a spawner's activation fails: it stays inactive, the rest run
+                self._notices.log(LogLevel.ERROR, name, "lifecycle: activate refused: " + problem)
+                continue
             try:
                 self._notices.observe(name, "start")
                 ok = entry.component.start()
@@ -156,6 +168,8 @@ class Transitions:
         errors: list[ComponentError] = []
         for entry in entries:
             name = entry.spec.full_name
+            if self.hardware is not None:
+                self.hardware.release(name)
             hooks = _TEARDOWN.get(entry.state, ())
             for hook in hooks:
                 try:
@@ -238,7 +252,7 @@ class Transitions:
         try:
             result, reason = self._hook(entry, "configure")
             if result == SUCCESS:
-                ports = set(comp._rtcf_inputs) | set(comp._rtcf_outputs)
+                ports = set(comp._rtcf_inputs) | set(comp._rtcf_outputs) | set(comp._rtcf_bound)
                 missing = [f"port {n!r}" for n in sorted(ports - comp._rtcf_redeclared)]
                 missing += [
                     f"tunable parameter {n!r}" for n in sorted(set(first) - set(params.declared))

@@ -34,7 +34,7 @@ from .._core._params import ParameterStore
 from .._core._rates import Rate
 from .._core._robot_description import HardwareInfo
 from .._core._runner import ComponentSpec
-from .._core._settings import RunnerSettings
+from .._core._settings import RunnerSettings, set_initial_states
 from ._controller_setup import ControllerSetup, read_setup
 from ._description import LaunchDescription, NodeDescription
 from ._robot_descriptions import PARAM as DESCRIPTION_PARAM
@@ -185,13 +185,15 @@ def _runner(node: NodeDescription, params: ParameterStore,
         # its parameters are the controller manager's (update_rate, the types): of those
         # only the runner's own settings are read; it is the controller manager itself
         private = {"mode": "no_wait", "controller_manager": node.name,
-                   **{k: v for k, v in private.items() if k in RUNNER_SETTINGS}}
+                   **{k: v for k, v in private.items() if k in RUNNER_SETTINGS
+                      or k.startswith("hardware_components_initial_state")}}
     try:
         settings = RunnerSettings.from_params(private, where=where)
         controllers = None
         if node.params_files and settings.controller_manager:
             manager = expand(settings.controller_manager, node.namespace)
             controllers = read_setup(node.params_files, manager)
+            set_initial_states(settings, controllers.params_for(manager))
             controllers.set_frequency(settings, "frequency" in private, where)
     except LaunchError:
         raise

@@ -39,6 +39,7 @@ from .._core._lane_names import MAIN_LANE
 from .._core._names import expand, namespace_of
 from .._runtime._supervisor import WorkerRunner
 from ._controller_loading import ControllerLoading
+from ._hardware_services import HardwareServices
 
 NOTHING_TO_DO = (
     "After checking the controllers, no controllers need to be activated or deactivated.")
@@ -78,9 +79,11 @@ class ControllerManager:
         ]
         # load, configure, unload, list types: what a spawner needs besides these two
         self._loading = ControllerLoading(node, runner, full)
+        self._hardware = HardwareServices(node, runner, full)  # its list_hardware_* ...
 
     def close(self) -> None:
         self._loading.close()
+        self._hardware.close()
         for service in self._services:
             self._node.destroy_service(service)
         self._services.clear()
@@ -105,8 +108,14 @@ class ControllerManager:
             state.type = str(info.get("ros2_control_type") or info.get("type", ""))
             state.is_async = info.get("lane", MAIN_LANE) != MAIN_LANE and every > 1
             state.update_rate = min(65535, max(0, round(frequency / every)))
-            if state.state == "active":  # what it holds: its claimed command topics
-                state.claimed_interfaces = [str(t) for t in info.get("claims", [])]
+            commands, states = info.get("interfaces", ((), ()))
+            state.required_command_interfaces = [str(k) for k in commands]
+            state.required_state_interfaces = [str(k) for k in states]
+            if state.state == "active":  # what it holds: its interfaces' keys (with
+                # hardware), else its claimed command topics
+                hardware = getattr(self._runner, "hardware", None)
+                state.claimed_interfaces = [str(t) for t in (
+                    commands if hardware else info.get("claims", []))]
             response.controller.append(state)
         return response
 

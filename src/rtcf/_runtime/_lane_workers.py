@@ -219,7 +219,9 @@ class LaneWorkers(Generic[W]):
         allowed = sorted(os.sched_getaffinity(0))
         mask, priority, how = lane_placement(self.settings, names, allowed)[lane]
         settings = dataclasses.replace(
-            self.settings, cpu_affinity_mask=mask, priority=priority, notes=[]
+            self.settings, cpu_affinity_mask=mask, priority=priority, notes=[],
+            # the hardware is the main lane's worker's alone (read, write, claims)
+            robot_description="", robot_description_file=""
         )
         worker = self._start(lane, settings)
         self.workers[lane] = worker

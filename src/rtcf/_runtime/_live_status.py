@@ -11,6 +11,7 @@ from __future__ import annotations
 import time
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
+from typing import Any
 
 from .._core._timing import TimingAggregate
 
@@ -100,3 +101,24 @@ class LiveReport:
             commands_clamped=commands[0],
             commands_refused=commands[1],
         )
+
+
+def live_aggregate(aggregate: TimingAggregate | None, span: Any) -> TimingAggregate:
+    """A run's timing so far: with lanes (``span``) the loop's as a whole."""
+    aggregate = aggregate or TimingAggregate()
+    return span.snapshot(aggregate) if span is not None else aggregate
+
+
+def live_status_of(runner: Any) -> LiveStatus:
+    """A WorkerRunner's status now: its timing, logs, faults, deadlines and commands,
+    with its lanes' workers'."""
+    workers = (runner, *runner._lanes.workers.values())
+    return runner._report.status(
+        runner._live_aggregate(),
+        log_records_dropped=runner.log_records_dropped,
+        faults=runner._process.faults,
+        access=runner.admission.access,
+        deadlines=runner.past_deadline(),
+        commands=[sum(c) for c in zip(*(w._process.command_words for w in workers),
+                                      strict=True)],
+    )

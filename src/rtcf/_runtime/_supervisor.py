@@ -38,9 +38,10 @@ from .._core._settings import RunnerSettings
 from .._core._timing import TimingAggregate
 from ._admission import Admission
 from ._doorbell import ClockFeed, Doorbell
+from ._hardware_view import HardwareView
 from ._heap import fill_numpy_cache
 from ._lane_workers import LaneWorkers
-from ._live_status import LiveReport, LiveStatus
+from ._live_status import LiveReport, LiveStatus, live_aggregate, live_status_of
 from ._loaded import LoadedComponents
 from ._port_channels import MailboxFanOut, MappedPort
 from ._recording import RecordSink
@@ -145,11 +146,13 @@ class WorkerRunner:
         bell_of = self.bridge.doorbell if self.bridge is not None else self.outputs_bell
         bell = bell_of.fd if bell_of is not None else -1
         process.spawn(bell)
-        self.call(
+        hello = self.call(
             "hello", list(sys.path), process.control, process.log, updates, self.settings,
             self.parameters.as_dict(), self.name, self.simulated, self.log_level, bell,
             process.clock_bell_fd,
         )
+        # what the worker built of the robot description: the controller manager's view
+        self.hardware = HardwareView(self, hello.get("hardware", []))
         self.refresh_introspection()
         return self
 
@@ -229,20 +232,10 @@ class WorkerRunner:
 
     def _live_aggregate(self) -> TimingAggregate:
         """The run's timing so far: with lanes the loop's as a whole."""
-        aggregate = self.runs.aggregate or TimingAggregate()
-        span = self._lanes.span
-        return span.snapshot(aggregate) if span is not None else aggregate
+        return live_aggregate(self.runs.aggregate, self._lanes.span)
 
     def live_status(self) -> LiveStatus:
-        return self._report.status(
-            self._live_aggregate(),
-            log_records_dropped=self.log_records_dropped,
-            faults=self._process.faults,
-            access=self.admission.access,
-            deadlines=self.past_deadline(),
-            commands=[sum(c) for c in zip(*(w._process.command_words for w in (
-                self, *self._lanes.workers.values())), strict=True)],
-        )
+        return live_status_of(self)
 
     def past_deadline(self) -> tuple[tuple[str, ...], int]:
         """The inputs past their deadline now, by name, and how many times any passed

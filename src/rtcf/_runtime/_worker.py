@@ -269,7 +269,9 @@ class Worker:
         self.updates = UpdateReader(self._update_ring, self._apply_update)
         self._applying = 0  # the number of the transition request being applied
         self.runner.transition_listeners.append(self._report)
-        return {"pid": os.getpid(), "python": sys.version.split()[0]}
+        hardware = self.runner.hardware
+        return {"pid": os.getpid(), "python": sys.version.split()[0],
+                "hardware": hardware.summary() if hardware is not None else []}
 
     def _apply_update(self, kind: int, component: str, name: str, value: Any) -> None:
         """An update record (between iterations); a lifecycle transition is answered."""
