@@ -149,7 +149,11 @@ def plan(description: LaunchDescription) -> Deployment:
     for node in description.nodes:
         if is_runner(node) or is_ros2_control_node(node):
             runners.append(_runner(node, params, warnings))
-            runners[-1].description = for_runner(node, description, warnings)
+            runner = runners[-1]
+            runner.description = for_runner(node, description, warnings)
+            if runner.description is not None and not runner.settings.robot_description:
+                # the loop's hardware (built in the worker from the settings)
+                runner.settings.robot_description = runner.description.text
         elif is_launcher(node):
             launchers.append(node)
         elif is_spawner(node):

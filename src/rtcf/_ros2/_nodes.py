@@ -309,8 +309,12 @@ def runner_main(argv: list[str] | None = None) -> int:
 
     status = 0
     try:
+        # a description being published comes before the worker starts, which builds its
+        # hardware; a bringup with a controllers file waits for one
+        description.settle(expected=controllers is not None)
+        if description.robot_description and not settings.robot_description:
+            settings.robot_description = description.robot_description
         runner.start()
-        description.settle()  # a description being published comes before the first run
         _say(name, f"ready: {settings.frequency:g} Hz, mode {settings.mode}")
 
         def run() -> None:

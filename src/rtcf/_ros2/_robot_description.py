@@ -80,11 +80,13 @@ class DescriptionListener:
         """One HardwareInfo per ``<ros2_control>`` tag of the description."""
         return [] if self._description is None else list(self._description.hardware)
 
-    def settle(self, timeout_s: float = SETTLE_S) -> bool:
-        """Before the first run: wait up to ``timeout_s`` for the description if the
-        graph shows a publisher of its topic. Whether there is one now."""
+    def settle(self, timeout_s: float = SETTLE_S, *, expected: bool = False) -> bool:
+        """Before the worker starts: wait up to ``timeout_s`` for the description if the
+        graph shows a publisher of its topic, or if one is ``expected`` (a ros2_control
+        bringup: discovery of a publisher started with the runner takes seconds). Whether
+        there is one now."""
         if self._subscription is not None and not self._arrived.is_set():
-            if self._node.count_publishers(self.topic) > 0:
+            if expected or self._node.count_publishers(self.topic) > 0:
                 deadline = time.monotonic() + timeout_s
                 while not self._arrived.wait(0.05) and time.monotonic() < deadline:
                     pass
@@ -115,7 +117,9 @@ class DescriptionListener:
     def _take(self, described: RobotDescription) -> None:
         with self._lock:
             self._description = described
-            late = " (after the loop started)" if self._loop_started else ""
+            late = (" (after the loop started: its hardware is not loaded; start the "
+                    "runner after the description is published, or give it as the runner's "
+                    "parameter robot_description)") if self._loop_started else ""
         self._arrived.set()
         self._say(described.summary() + late)
 
