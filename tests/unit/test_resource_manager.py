@@ -235,6 +235,20 @@ def test_a_read_error_goes_through_on_error_and_makes_the_interfaces_unavailable
     assert rm.claims.controllers_using("hw") == ["ctrl"]
 
 
+@pytest.mark.parametrize("on_error,state", [(CallbackReturn.SUCCESS, "unconfigured"),
+                                             (CallbackReturn.FAILURE, "finalized")])
+def test_a_failed_read_is_error_processed_once(on_error: object, state: str) -> None:
+    rm = ResourceManager.from_urdf(HEAD + scripted("hw", joint("joint1", ("position",), {
+        "position": None})) + TAIL)
+    rm.set_initial_states()
+    Scripted.answers.update(read=ReturnType.ERROR, on_error=on_error)
+    rm.read_all(0.0, 0.01)
+    rm.write_all(0.0, 0.01)
+    rm.read_all(0.01, 0.01)
+    assert Scripted.calls.count("hw.on_error") == 1, Scripted.calls
+    assert rm.list_hardware_components()[0].state.label == state
+
+
 def test_write_deactivate_deactivates_and_error_unconfigures() -> None:
     rm = ResourceManager.from_urdf(HEAD + scripted("hw", joint("joint1", ("position",), {
         "position": None})) + TAIL)

@@ -137,8 +137,10 @@ class HardwareComponent:
         return self._transition("shutting down", self.impl.on_shutdown, (FINALIZED, -1))
 
     def error(self) -> int:
-        """Error processing: ``on_error``; unconfigured if it succeeds, else finalized."""
-        if self.state in (UNKNOWN, UNCONFIGURED):
+        """Error processing: ``on_error``; unconfigured if it succeeds, else finalized.
+        Once only: a hardware whose read failed, and then its group, is not processed
+        again (nor one already finalized)."""
+        if self.state in (UNKNOWN, UNCONFIGURED, FINALIZED):
             return self.state
         result = self._hook("handling an error of", self.impl.on_error,
                             LifecycleState.of(self.state))
