@@ -417,3 +417,22 @@ def test_in_loop_arrivals_carry_over_a_stop_and_a_new_run() -> None:
     assert first.deadline_events == []
     (event,) = second.deadline_events
     assert (event.iteration, event.back_iteration, event.last_arrival) == (25, 40, 0.19)
+
+
+class LetPausing(Pausing):
+    silent = range(16, 10_000)  # releases 0, 5, 10, 15 write; 15's is seen from 20
+
+
+def test_a_let_lanes_output_arrives_in_the_iteration_it_is_handed_over_in() -> None:
+    # release 15's value becomes visible at 20 (its window's end): past 0.25 s from 26
+    # (was 27: the handover, after the iteration's feeders, counted from the next look)
+    from rtcf._core._rates import Rate
+
+    trace = run_components([
+        ComponentSpec("writer", LetPausing, lane="slow", rate=Rate(every=5, phase=0)),
+        ComponentSpec("ctrl", Slow),
+    ], 40, frequency=HZ)
+    (event,) = trace.result.deadline_events
+    assert (event.iteration, event.last_arrival) == (26, 0.20)
+    statuses = dict(trace.components["/ctrl"].statuses)
+    assert statuses[20] is FlowStatus.NEW_DATA and statuses[26] is FlowStatus.EXPIRED

@@ -221,10 +221,10 @@ PyTypeObject HeartbeatType = {
  * watched input, one look at its slot and one comparison. It keeps each input's last
  * seq and due time itself (a new value: due = its arrival + deadline) and calls fn, the
  * watch's full check in Python, only in an iteration where one that was past its
- * deadline has a value again or one passed its due time. A value arrives at the start
- * of the iteration that wrote it when a component wrote it in the loop since the last
- * look (its slot's iteration is the last look's), else at the start of this one (fed
- * from the middleware, handed over by another lane). */
+ * deadline has a value again or one passed its due time. A value that came into the
+ * slot in the loop since the last look (a component's write, or a lane's handover: its
+ * slot's iteration is at most the last look's) arrived at the start of the last look's
+ * iteration; one fed before this look (the middleware's: iteration -1), at this one's. */
 typedef struct {
     PyObject_HEAD
     LoopStateObject *state;
@@ -303,7 +303,9 @@ DeadlineGate_call(DeadlineGateObject *g, PyObject *args, PyObject *kwds)
                 break;
             }
             seq[k] = s;
-            due[k] = (slot->iteration == g->last_iteration ? g->last_time_ns : t) + p->deadline_ns;
+            /* in the slot since the last look's iteration began: it arrived then */
+            long long w = slot->iteration;
+            due[k] = (w >= 0 && w <= g->last_iteration ? g->last_time_ns : t) + p->deadline_ns;
         } else if (t > due[k]) {
             result = NULL;
             break;
@@ -353,8 +355,8 @@ static PyMethodDef DeadlineGate_methods[] = {
 static PyMemberDef DeadlineGate_members[] = {
     {"fn", T_OBJECT, offsetof(DeadlineGateObject, fn), READONLY, "What a call runs when due."},
     {"last_iteration", T_LONGLONG, offsetof(DeadlineGateObject, last_iteration), 0,
-     "The iteration of the last look (-2: none yet); a value whose slot says it was written "
-     "in it arrived at its start."},
+     "The iteration of the last look (-2: none yet); a new value whose slot's iteration is 0 "
+     "to it came in the loop since, and arrived at its start."},
     {"last_time_ns", T_LONGLONG, offsetof(DeadlineGateObject, last_time_ns), 0,
      "The last look's iteration start, on the loop's clock."},
     {NULL},
@@ -364,7 +366,7 @@ PyTypeObject DeadlineGateType = {
     RTCF_TYPE("rtcf._core._compiled.DeadlineGate", DeadlineGateObject,
               "DeadlineGate(state, ports, seq, due, fn): per port k, a new value sets "
               "seq[k] and due[k] = its arrival + its deadline (the last look's time if "
-              "its slot's iteration is the last look's, else state.time_ns); calls fn "
+              "its slot's iteration is 0 to the last look's, else state.time_ns); calls fn "
               "when one past its deadline has a value again or state.time_ns > due[k]."),
     .tp_flags = Py_TPFLAGS_DEFAULT | Py_TPFLAGS_HAVE_GC,
     .tp_new = PyType_GenericNew,

@@ -4,10 +4,11 @@ An input with a deadline (``add_input(..., deadline=0.1)``, or the launcher para
 ``deadline/NAME``) is watched at every iteration boundary, after the feeders (which
 copy what the middleware delivered) and before the first update, on the loop's own
 clock (``state.time_ns``: the same under ``--sim``, /clock time and real time). A
-value a component writes in the loop *arrives* at the start of the iteration that
-wrote it (its slot's iteration); one fed from the middleware, or handed over by
-another lane on logical execution time, at the start of the first iteration that
-sees it. The deadline applies in the first iteration whose start is later than the
+value *arrives* at the start of the first iteration in which it is in its slot: a
+value a component writes in the loop, at the start of the iteration that wrote it;
+one another lane hands over (a LET lane's output at its window's end), of the
+iteration it is handed over in; one fed from the middleware, of the iteration whose
+feeders fed it. The deadline applies in the first iteration whose start is later than the
 last arrival plus the deadline: the port's status turns ``EXPIRED`` and the
 component's ``on_deadline`` policy applies (``continue``: the component decides;
 ``deactivate``: out of the schedule, its fallback takes over; ``stop``: the loop ends
@@ -181,8 +182,9 @@ class DeadlineWatch:
             seq = slot.seq
             if seq != seqs[k]:
                 seqs[k] = seq
-                # written by a component since the last look: it arrived then
-                arrived, arrival = (last_i, last_t) if slot.iteration == last_i else (i, t)
+                # came in the loop since the last look (a write, a lane's handover): then
+                came = 0 <= slot.iteration <= last_i
+                arrived, arrival = (last_i, last_t) if came else (i, t)
                 dues[k] = arrival + track.deadline_ns
                 if track.port._expired:
                     self._back(track, arrived, arrival)

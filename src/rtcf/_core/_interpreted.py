@@ -359,10 +359,10 @@ class DeadlineGate:
     ``seq[k]`` and ``due[k] = its arrival + its deadline``; calls ``fn`` (the watch's
     full check) when one past its deadline has a value again or ``time_ns > due[k]``.
 
-    A value arrives at the start of the iteration that wrote it when a component wrote
-    it in the loop since the last look (its slot's iteration is ``last_iteration``: it
-    arrived at ``last_time_ns``), else at the start of this one (fed from the
-    middleware, handed over by another lane)."""
+    A value that came into the slot in the loop since the last look (a component's
+    write, or a lane's handover: its slot's iteration is 0 to ``last_iteration``)
+    arrived at the start of the last look's iteration (``last_time_ns``); one fed before
+    this look (the middleware's: its slot's iteration is -1), at this one's."""
 
     __slots__ = ("_due", "_ports", "_seq", "_state", "fn", "last_iteration", "last_time_ns")
 
@@ -396,7 +396,8 @@ class DeadlineGate:
                     result = self.fn()
                     break
                 seq[k] = s
-                arrival = self.last_time_ns if slot.iteration == self.last_iteration else t
+                w = slot.iteration  # in the slot since the last look's iteration began?
+                arrival = self.last_time_ns if 0 <= w <= self.last_iteration else t
                 due[k] = arrival + port._deadline_ns
             elif t > due[k]:
                 result = self.fn()  # (it reads the last look's iteration and time)
