@@ -62,15 +62,31 @@ class SinkNoDeadline(Sink):
     deadline = None
 
 
-def _every_iteration(state: Any, ports: Any, seq: Any, due: Any, fn: Any) -> Any:
-    return fn  # the watch's full check itself (a bound method: nothing to release)
+class _EveryIteration:
+    """The watch's full check in every iteration, keeping the last look's iteration and
+    time as a gate does (the check reads them: a value written in the loop arrived
+    then). The wrapper's own call is in the "before" rows (about 40 ns in Python)."""
+
+    __slots__ = ("fn", "last_iteration", "last_time_ns", "state")
+
+    def __init__(self, state: Any, ports: Any, seq: Any, due: Any, fn: Any) -> None:
+        self.state, self.fn = state, fn
+        self.last_iteration, self.last_time_ns = -2, 0
+
+    def __call__(self) -> None:
+        self.fn()
+        state = self.state
+        self.last_iteration, self.last_time_ns = state.iteration, state.time_ns
+
+    def release(self) -> None:
+        pass
 
 
 def _run(system: str, runner: Runner, n: int) -> float:
     """ns per iteration of one run of n iterations."""
     gate = _deadlines.DeadlineGate
     if system == "every":
-        _deadlines.DeadlineGate = _every_iteration  # type: ignore[assignment,misc]
+        _deadlines.DeadlineGate = _EveryIteration  # type: ignore[assignment,misc]
         runner.deadlines.gate = None
     try:
         t0 = time.perf_counter_ns()

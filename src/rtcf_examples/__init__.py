@@ -10,6 +10,7 @@ from ._arm import (
     MujocoArm,
     TrajectoryInterpolator,
 )
+from ._cartpole import MujocoCartPole
 from ._components import (
     BareMinimum,
     Busy,
@@ -41,6 +42,7 @@ __all__ = [
     "Logging",
     "Mimo",
     "MujocoArm",
+    "MujocoCartPole",
     "MujocoDiffbot",
     "PaperExample",
     "ParameterHandling",

@@ -210,6 +210,32 @@ def test_a_supervisor_killed_with_sigkill_takes_its_worker_along(tmp_path):
     assert rtcf_shm_names() == []
 
 
+@pytest.mark.parametrize("sim", [True, False], ids=["sim", "real-time"])
+def test_a_deadline_on_a_value_written_in_the_loop_applies_exactly(tmp_path, sim):
+    # /src writes /x in the loop but in iterations 20-39; /reader's deadline of 50 ms
+    # (5 iterations at 100 Hz) applies at 25 and the value is back at 40, in the worker,
+    # under --sim and in real time alike (the loop's own clock decides, never the wall)
+    path = write_launch(tmp_path, """
+      <node name="src" pkg="rtcf" type="rt_launcher" args="rtcf_test_components PausingSource">
+        <remap from="out" to="/x"/>
+      </node>
+      <node name="reader" pkg="rtcf" type="rt_launcher" args="rtcf_examples Identity">
+        <remap from="in_port" to="/x"/>
+        <param name="deadline/in_port" value="0.05"/>
+      </node>""", runner_xml(100.0))
+    report = tmp_path / "report"
+    args = ["--duration", "0.5", "--report", str(report)] + (["--sim"] if sim else [])
+    result = run_rtcf("launch", path, *args)
+    assert result.returncode == 0, result.stderr
+    timing = json.loads((report / "timing.json").read_text())
+    (event,) = timing["deadline_events"]
+    assert (event["iteration"], event["back_iteration"]) == (25, 40), event
+    assert (event["last_arrival"], event["time"], event["back_time"]) == (0.19, 0.25, 0.4)
+    assert "input '/reader.in_port' (/x) past its deadline of 0.05 s at iteration 25" in (
+        result.stderr
+    )
+
+
 def test_a_raising_component_ends_the_run_with_its_name_and_cleans_up(tmp_path):
     path = write_launch(tmp_path, bomb(5))
     proc = start("launch", path, "--duration", "10")

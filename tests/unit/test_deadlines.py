@@ -271,8 +271,20 @@ class Two(Component):
         self.u.write((self.cmd.read() or 0.0) + (self.aux.read() or 0.0))
 
 
-def _every_iteration(state: Any, ports: Any, seq: Any, due: Any, fn: Any) -> Any:
-    return fn  # what the watch was before its gate: the full check in every iteration
+class _EveryIteration:
+    """What the watch was before its gate: the full check in every iteration (keeping
+    the last look's iteration and time, as a gate does)."""
+
+    def __init__(self, state: Any, ports: Any, seq: Any, due: Any, fn: Any) -> None:
+        self.state, self.fn = state, fn
+        self.last_iteration, self.last_time_ns = _interpreted.NO_LOOK, 0
+
+    def __call__(self) -> None:
+        self.fn()
+        self.last_iteration, self.last_time_ns = self.state.iteration, self.state.time_ns
+
+    def release(self) -> None:
+        pass
 
 
 _CHECK = _deadlines.DeadlineWatch.check
@@ -309,7 +321,7 @@ def _traced(monkeypatch: pytest.MonkeyPatch, gate: Any) -> tuple[Any, list[int]]
 def test_the_gate_decides_as_the_full_check_in_every_iteration_and_calls_it_rarely(
     monkeypatch: pytest.MonkeyPatch, gate: Any
 ) -> None:
-    reference, every = _traced(monkeypatch, _every_iteration)
+    reference, every = _traced(monkeypatch, _EveryIteration)
     trace, checks = _traced(monkeypatch, gate)
     assert every == list(range(25))
     # iteration by iteration: the same statuses, outputs, schedule, events and totals
@@ -326,3 +338,101 @@ def test_the_gate_decides_as_the_full_check_in_every_iteration_and_calls_it_rare
     # the full check only where something changed, and while an input past its due time
     # waits for its component to be back (6-8, 19-22)
     assert checks == [5, 6, 7, 8, 9, 12, 18, 19, 20, 21, 22]
+
+
+# -- values written inside the loop: they arrive in the iteration that wrote them ------
+
+
+class Pausing(Component):
+    """Writes /cmd (its iteration) in every iteration but those of ``silent``."""
+
+    silent = range(20, 40)  # last value at 19, back at 40
+
+    def configure(self) -> None:
+        self.cmd = self.add_output("cmd", float)
+
+    def update(self) -> None:
+        if self.iteration not in self.silent:
+            self.cmd.write(float(self.iteration))
+
+
+class Slow(Ctrl):
+    deadline = 0.05  # 5 iterations at 100 Hz
+
+
+def _in_loop(policy: str, *, reader_first: bool = False, iterations: int = 50) -> Any:
+    specs = [
+        ComponentSpec("writer", Pausing),
+        ComponentSpec("ctrl", Slow, is_first=reader_first, policy=FailurePolicy(
+            on_deadline=policy, fallback="/hold")),
+        ComponentSpec("hold", Hold),
+    ]
+    return run_components(specs, iterations, frequency=HZ)
+
+
+def test_a_value_written_earlier_in_the_iteration_arrives_in_it() -> None:
+    # last written at 19 (t=0.19 s): past 0.24 s from iteration 25, not 26; the value
+    # written at 40 is NEW_DATA at 40, not EXPIRED for one more iteration
+    trace = _in_loop("continue")
+    statuses = dict(trace.components["/ctrl"].statuses)
+    expired = [i for i, s in statuses.items() if s is FlowStatus.EXPIRED]
+    assert expired == list(range(25, 40))
+    assert statuses[24] is FlowStatus.OLD_DATA and statuses[40] is FlowStatus.NEW_DATA
+    assert trace.outputs["/u"][40] == 40.0
+    (event,) = trace.result.deadline_events
+    assert (event.iteration, event.back_iteration) == (25, 40)
+    assert (event.time, event.last_arrival, event.back_time) == (0.25, 0.19, 0.40)
+    assert trace.result.deadlines["/ctrl.cmd"]["expired_seconds"] == pytest.approx(0.15)
+
+
+def test_a_reader_before_its_writer_counts_from_the_writers_iteration() -> None:
+    # is_first: the reader sees at i what was written at i - 1; the value of 19 (seen
+    # at 20) is still the last one at 24 and too old at 25; the one of 40, seen at 41
+    trace = _in_loop("continue", reader_first=True)
+    statuses = dict(trace.components["/ctrl"].statuses)
+    expired = [i for i, s in statuses.items() if s is FlowStatus.EXPIRED]
+    assert expired == list(range(25, 41))
+    assert statuses[41] is FlowStatus.NEW_DATA
+    (event,) = trace.result.deadline_events
+    assert (event.iteration, event.back_iteration, event.last_arrival) == (25, 40, 0.19)
+
+
+def test_deactivate_on_a_value_written_in_the_loop_comes_back_at_the_next_boundary() -> None:
+    trace = _in_loop("deactivate")
+    assert trace.ran["/hold"] == list(range(25, 41))  # out at 25; back once 40 wrote
+    assert trace.ran["/ctrl"] == list(range(25)) + list(range(41, 50))
+    assert trace.outputs["/u"][24:26] == [19.0, -1.0] and trace.outputs["/u"][41] == 41.0
+    (event,) = trace.result.deadline_events
+    assert (event.action, event.iteration, event.back_iteration) == ("deactivated", 25, 40)
+
+
+def test_in_loop_arrivals_carry_over_a_stop_and_a_new_run() -> None:
+    # the last look's iteration and time survive the watch's refresh between two runs
+    runner = Runner(RunnerSettings(frequency=HZ), clock=SimClock())
+    runner.load(ComponentSpec("writer", Pausing))
+    runner.load(ComponentSpec("ctrl", Slow))
+    first = runner.run(20)  # ends after the last write, at 19
+    second = runner.run(30)
+    runner.shutdown()
+    assert first.deadline_events == []
+    (event,) = second.deadline_events
+    assert (event.iteration, event.back_iteration, event.last_arrival) == (25, 40, 0.19)
+
+
+class LetPausing(Pausing):
+    silent = range(16, 10_000)  # releases 0, 5, 10, 15 write; 15's is seen from 20
+
+
+def test_a_let_lanes_output_arrives_in_the_iteration_it_is_handed_over_in() -> None:
+    # release 15's value becomes visible at 20 (its window's end): past 0.25 s from 26
+    # (was 27: the handover, after the iteration's feeders, counted from the next look)
+    from rtcf._core._rates import Rate
+
+    trace = run_components([
+        ComponentSpec("writer", LetPausing, lane="slow", rate=Rate(every=5, phase=0)),
+        ComponentSpec("ctrl", Slow),
+    ], 40, frequency=HZ)
+    (event,) = trace.result.deadline_events
+    assert (event.iteration, event.last_arrival) == (26, 0.20)
+    statuses = dict(trace.components["/ctrl"].statuses)
+    assert statuses[20] is FlowStatus.NEW_DATA and statuses[26] is FlowStatus.EXPIRED

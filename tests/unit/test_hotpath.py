@@ -95,12 +95,15 @@ def test_an_input_past_its_deadline_says_expired_until_the_watch_clears_it(
     assert inp.deadline is None and inp._deadline_ns == 0 and not inp._expired
     inp._deadline_ns = 250_000_000
     assert inp.deadline == 0.25
-    inp._expired = True  # nothing yet: NO_DATA says more than EXPIRED
     assert inp.status is FlowStatus.NO_DATA
-    out.write(1.0)  # past its deadline, even unread: EXPIRED before NEW_DATA
-    assert inp.status is FlowStatus.EXPIRED and inp.has_new_data
+    out.write(1.0)
+    inp._expired = inp._slot.seq  # the watch found this value past its deadline
+    assert inp.status is FlowStatus.EXPIRED and inp.has_new_data  # EXPIRED before NEW_DATA
     assert inp.read() == 1.0 and inp.status is FlowStatus.EXPIRED
-    inp._expired = False
+    out.write(2.0)  # a new value (earlier in the iteration): new data at once
+    assert inp.status is FlowStatus.NEW_DATA and inp._expired == 1
+    assert inp.read() == 2.0 and inp.status is FlowStatus.OLD_DATA
+    inp._expired = 0  # the watch clears it at the next boundary
     assert inp.status is FlowStatus.OLD_DATA
 
 
@@ -759,3 +762,58 @@ def test_the_compiled_command_check_refuses_a_clamp_into_what_is_no_output() -> 
     assert check(np.array([0.5]), None, False) == 0  # out is only taken for a clamp
     with pytest.raises(TypeError, match="check"):
         check(np.array([0.5]), None)
+
+
+def _in_loop_gate_trace(m: ModuleType) -> list[tuple[int, bool, int, int]]:
+    """A deadline gate over an input whose value a component writes in the loop (after
+    the gate's look) at iterations 0-2 and from 9, and which is fed before the look (as
+    a feeder would) at 12: per iteration, whether the gate called fn, the due time, and
+    the status the reader sees after the write."""
+    out, inp = _ports(m)
+    st = m.LoopState(100.0)
+    out._state = st  # a write records the loop's iteration
+    inp._deadline_ns = 25_000_000
+    never = sys.maxsize
+    seq, due = array("q", [0]), array("q", [never])
+    called: list[int] = []
+    gate: Any = None
+
+    def fn() -> None:  # the watch in short: expire (keeping the seq), or clear
+        called.append(st.iteration)
+        s = inp._slot.seq
+        if s != seq[0]:
+            written_then = inp._slot.iteration == gate.last_iteration
+            seq[0], inp._expired = s, 0
+            due[0] = (gate.last_time_ns if written_then else st.time_ns) + 25_000_000
+        elif st.time_ns > due[0]:
+            inp._expired, due[0] = s, never
+
+    gate = m.DeadlineGate(st, (inp,), seq, due, fn)
+    assert gate.last_iteration == -2
+    trace = []
+    for i in range(14):
+        st.iteration, st.time_ns = i, i * 10_000_000
+        if i == 12:
+            out.write(-1.0)  # before the look: a feeder's
+        gate()
+        assert (gate.last_iteration, gate.last_time_ns) == (i, st.time_ns)
+        if i < 3 or 9 <= i < 12:
+            out.write(float(i))  # in the loop, after the look
+        trace.append((i, called[-1:] == [i], due[0], inp.status.value))
+    return trace
+
+
+def test_a_deadline_gate_counts_a_value_written_in_the_loop_from_the_iteration_that_wrote_it(
+) -> None:
+    compiled, python = _in_loop_gate_trace(_compiled), _in_loop_gate_trace(_interpreted)
+    assert compiled == python  # side by side, iteration by iteration
+    # written at 2 (20 ms): due 45 ms, past it at 5 (was: seen at 3, due 55 ms, past at 6)
+    assert compiled[3][2] == 45_000_000 and [i for i, c, _, _ in compiled if c] == [5, 10]
+    # (never read: NEW_DATA until EXPIRED) written again at 9, after the look: new data
+    # at 9 (was: EXPIRED until the next look)
+    assert [s for *_, s in compiled[4:11]] == [
+        FlowStatus.NEW_DATA.value, *[FlowStatus.EXPIRED.value] * 4,
+        FlowStatus.NEW_DATA.value, FlowStatus.NEW_DATA.value,
+    ]
+    # the return is taken at 10 as arriving at 9; the feeder's value at 12 arrives at 12
+    assert compiled[10][2] == 115_000_000 and compiled[12][2] == 145_000_000

@@ -94,7 +94,8 @@ typedef struct {
     PyObject *topic;        /* resolved topic name, set when the runner wires the graph */
     PyObject *producer;     /* an input's: the OutputPort writing its topic, or NULL */
     long long deadline_ns;  /* an input's deadline (0: none); the loop's watch reads it */
-    char expired;           /* an input's: past its deadline (the watch sets and clears it) */
+    long long expired;      /* an input's: the slot's seq when the watch found it past its
+                             * deadline (0: not past it; a later write is a new value) */
 } PortObject;
 
 /* ---- Plans ------------------------------------------------------------------------ */

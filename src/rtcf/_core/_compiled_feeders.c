@@ -219,9 +219,12 @@ PyTypeObject HeartbeatType = {
 
 /* The loop's last feeder where inputs have deadlines (rtcf._core._deadlines): per
  * watched input, one look at its slot and one comparison. It keeps each input's last
- * seq and due time itself (a new value: due = now + deadline) and calls fn, the
+ * seq and due time itself (a new value: due = its arrival + deadline) and calls fn, the
  * watch's full check in Python, only in an iteration where one that was past its
- * deadline has a value again or one passed its due time. */
+ * deadline has a value again or one passed its due time. A value that came into the
+ * slot in the loop since the last look (a component's write, or a lane's handover: its
+ * slot's iteration is at most the last look's) arrived at the start of the last look's
+ * iteration; one fed before this look (the middleware's: iteration -1), at this one's. */
 typedef struct {
     PyObject_HEAD
     LoopStateObject *state;
@@ -229,7 +232,11 @@ typedef struct {
     Py_buffer seq, due;
     int held;
     PyObject *fn;
+    long long last_iteration; /* the iteration of the last look (NO_LOOK: none yet) */
+    long long last_time_ns;   /* its start, on the loop's clock */
 } DeadlineGateObject;
+
+#define NO_LOOK (-2LL) /* no slot's iteration is -2 (-1: written outside the loop) */
 
 static void
 DeadlineGate_let_go(DeadlineGateObject *g)
@@ -272,6 +279,8 @@ DeadlineGate_init(DeadlineGateObject *g, PyObject *args, PyObject *kwds)
     Py_XSETREF(g->state, (LoopStateObject *)Py_NewRef(state));
     Py_XSETREF(g->ports, Py_NewRef(ports));
     Py_XSETREF(g->fn, Py_NewRef(fn));
+    g->last_iteration = NO_LOOK;
+    g->last_time_ns = 0;
     return 0;
 }
 
@@ -280,21 +289,35 @@ DeadlineGate_call(DeadlineGateObject *g, PyObject *args, PyObject *kwds)
 {
     if (!g->held)
         Py_RETURN_NONE;
-    long long t = g->state->time_ns;
+    long long i = g->state->iteration, t = g->state->time_ns;
     long long *seq = (long long *)g->seq.buf, *due = (long long *)g->due.buf;
     Py_ssize_t n = PyTuple_GET_SIZE(g->ports);
+    PyObject *result = Py_None;
     for (Py_ssize_t k = 0; k < n; k++) {
         PortObject *p = (PortObject *)PyTuple_GET_ITEM(g->ports, k);
-        long long s = p->slot->seq;
+        SlotObject *slot = p->slot;
+        long long s = slot->seq;
         if (s != seq[k]) {
-            if (p->expired) /* back: the watch's check takes it from here */
-                return PyObject_CallNoArgs(g->fn);
+            if (p->expired) { /* back: the watch's check takes it from here */
+                result = NULL;
+                break;
+            }
             seq[k] = s;
-            due[k] = t + p->deadline_ns;
-        } else if (t > due[k])
-            return PyObject_CallNoArgs(g->fn);
+            /* in the slot since the last look's iteration began: it arrived then */
+            long long w = slot->iteration;
+            due[k] = (w >= 0 && w <= g->last_iteration ? g->last_time_ns : t) + p->deadline_ns;
+        } else if (t > due[k]) {
+            result = NULL;
+            break;
+        }
     }
-    Py_RETURN_NONE;
+    if (result == NULL) /* the full check, which reads the last look's iteration and time */
+        result = PyObject_CallNoArgs(g->fn);
+    else
+        Py_INCREF(result);
+    g->last_iteration = i;
+    g->last_time_ns = t;
+    return result;
 }
 
 static PyObject *
@@ -331,14 +354,20 @@ static PyMethodDef DeadlineGate_methods[] = {
 
 static PyMemberDef DeadlineGate_members[] = {
     {"fn", T_OBJECT, offsetof(DeadlineGateObject, fn), READONLY, "What a call runs when due."},
+    {"last_iteration", T_LONGLONG, offsetof(DeadlineGateObject, last_iteration), 0,
+     "The iteration of the last look (-2: none yet); a new value whose slot's iteration is 0 "
+     "to it came in the loop since, and arrived at its start."},
+    {"last_time_ns", T_LONGLONG, offsetof(DeadlineGateObject, last_time_ns), 0,
+     "The last look's iteration start, on the loop's clock."},
     {NULL},
 };
 
 PyTypeObject DeadlineGateType = {
     RTCF_TYPE("rtcf._core._compiled.DeadlineGate", DeadlineGateObject,
               "DeadlineGate(state, ports, seq, due, fn): per port k, a new value sets "
-              "seq[k] and due[k] = state.time_ns + its deadline; calls fn when one past "
-              "its deadline has a value again or state.time_ns > due[k]."),
+              "seq[k] and due[k] = its arrival + its deadline (the last look's time if "
+              "its slot's iteration is 0 to the last look's, else state.time_ns); calls fn "
+              "when one past its deadline has a value again or state.time_ns > due[k]."),
     .tp_flags = Py_TPFLAGS_DEFAULT | Py_TPFLAGS_HAVE_GC,
     .tp_new = PyType_GenericNew,
     .tp_init = (initproc)DeadlineGate_init,

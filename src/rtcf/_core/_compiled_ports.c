@@ -115,7 +115,9 @@ static PyObject *
 InputPort_status(PortObject *p, void *closure)
 {
     long long seq = p->slot->seq;
-    int k = seq == 0 ? 0 : (p->expired ? 3 : (seq != p->seen ? 2 : 1));
+    /* EXPIRED only while the value the watch found too old is still the latest: a value
+     * written since (earlier in this iteration) is new data at once */
+    int k = seq == 0 ? 0 : (seq == p->expired ? 3 : (seq != p->seen ? 2 : 1));
     if (flow_status[k] == NULL)
         return PyLong_FromLong(k);
     return Py_NewRef(flow_status[k]);
@@ -311,7 +313,7 @@ static PyMemberDef Port_members[] = {
      "The resolved topic name (set when the runner wires the graph)."},
     {"_seen", T_LONGLONG, offsetof(PortObject, seen), 0, NULL},
     {"_deadline_ns", T_LONGLONG, offsetof(PortObject, deadline_ns), 0, NULL},
-    {"_expired", T_BOOL, offsetof(PortObject, expired), 0, NULL},
+    {"_expired", T_LONGLONG, offsetof(PortObject, expired), 0, NULL},
     {NULL},
 };
 

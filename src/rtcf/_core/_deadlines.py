@@ -4,14 +4,21 @@ An input with a deadline (``add_input(..., deadline=0.1)``, or the launcher para
 ``deadline/NAME``) is watched at every iteration boundary, after the feeders (which
 copy what the middleware delivered) and before the first update, on the loop's own
 clock (``state.time_ns``: the same under ``--sim``, /clock time and real time). A
-value *arrives* at the start of the first iteration that sees it. The deadline
-applies in the first iteration whose start is later than the last arrival plus the
-deadline: the port's status turns ``EXPIRED`` and the component's ``on_deadline``
-policy applies (``continue``: the component decides; ``deactivate``: out of the
-schedule, its fallback takes over; ``stop``: the loop ends through the safe stops).
-The next value clears it; a component the policy took out comes back as
-``activate`` brings it back (and its fallback stands by again). Nothing is watched
-before an input's first value (its status says ``NO_DATA``).
+value *arrives* at the start of the first iteration in which it is in its slot: a
+value a component writes in the loop, at the start of the iteration that wrote it;
+one another lane hands over (a LET lane's output at its window's end), of the
+iteration it is handed over in; one fed from the middleware, of the iteration whose
+feeders fed it. The deadline applies in the first iteration whose start is later than the
+last arrival plus the deadline: the port's status turns ``EXPIRED`` and the
+component's ``on_deadline`` policy applies (``continue``: the component decides;
+``deactivate``: out of the schedule, its fallback takes over; ``stop``: the loop ends
+through the safe stops). The next value clears it: the status is ``NEW_DATA`` as soon
+as it is written, also by a component earlier in the same iteration (the port keeps
+the seq it expired at: ``EXPIRED`` only while that value is the latest), and the
+watch records the return in the iteration that wrote it. A component the policy took
+out comes back as ``activate`` brings it back (and its fallback stands by again), at
+the next iteration boundary. Nothing is watched before an input's first value (its
+status says ``NO_DATA``).
 
 Each time a deadline applies is a :class:`DeadlineEvent` (the iteration it applied
 in, and the iteration and time the input came back), and each input's count and
@@ -36,6 +43,7 @@ from typing import TYPE_CHECKING, Any
 from ._errors import ComponentError
 from ._faults import DEADLINE_CONTINUE, DEADLINE_DEACTIVATE, DEADLINE_STOP
 from ._hotpath import DeadlineGate, gate_words
+from ._interpreted import NO_LOOK
 from ._lifecycle import ACTIVE
 from ._log import LogLevel
 
@@ -59,9 +67,9 @@ class DeadlineEvent:
     deadline: float  # seconds
     iteration: int  # the first iteration past it (where the policy applied)
     time: float  # that iteration's start, seconds on the loop's clock
-    last_arrival: float  # the start of the iteration that saw the last value
+    last_arrival: float  # when the last value arrived (see the module's docstring)
     action: str  # continue, deactivated, stopped
-    back_iteration: int = -1  # the first iteration that saw the next value (-1: never)
+    back_iteration: int = -1  # the iteration the next value arrived in (-1: never)
     back_time: float = -1.0
     fallback: str = ""
 
@@ -140,6 +148,9 @@ class DeadlineWatch:
                 tracks[id(port)] = track
         self.tracks = tracks
         self._watched = tuple(tracks.values())
+        last = (NO_LOOK, 0) if self.gate is None else (
+            self.gate.last_iteration, self.gate.last_time_ns
+        )
         bits = 0
         for k, track in enumerate(self._watched):
             track.bit = 1 << k if k < 63 else 0
@@ -152,6 +163,7 @@ class DeadlineWatch:
         self.gate = DeadlineGate(
             self.state, tuple(t.port for t in self._watched), self.seq, self.due, self.check
         )
+        self.gate.last_iteration, self.gate.last_time_ns = last  # across runs, too
         return bool(tracks)
 
     def names(self) -> list[str]:
@@ -162,15 +174,20 @@ class DeadlineWatch:
     def check(self) -> None:
         """At an iteration boundary: arrivals, then deadlines passed (what the gate
         calls when something changes; the same look it takes, and what follows)."""
-        t = self.state.time_ns
+        i, t = self.state.iteration, self.state.time_ns
+        last_i, last_t = self.gate.last_iteration, self.gate.last_time_ns
         seqs, dues = self.seq, self.due
         for k, track in enumerate(self._watched):
-            seq = track.port._slot.seq
+            slot = track.port._slot
+            seq = slot.seq
             if seq != seqs[k]:
                 seqs[k] = seq
-                dues[k] = t + track.deadline_ns
+                # came in the loop since the last look (a write, a lane's handover): then
+                came = 0 <= slot.iteration <= last_i
+                arrived, arrival = (last_i, last_t) if came else (i, t)
+                dues[k] = arrival + track.deadline_ns
                 if track.port._expired:
-                    self._back(track, t)
+                    self._back(track, arrived, arrival)
             elif t > dues[k] and track.entry.state == ACTIVE:
                 self._expire(track, k, t)
 
@@ -197,7 +214,7 @@ class DeadlineWatch:
     # -- what happens, rarely: outside the steady state ----------------------------
     def _expire(self, track: _Track, k: int, t: int) -> None:
         port, entry = track.port, track.entry
-        port._expired = True
+        port._expired = port._slot.seq  # EXPIRED while this value is the latest
         arrival = self.due[k] - track.deadline_ns
         self.due[k] = NEVER  # until the next value
         self.bits[0] |= track.bit
@@ -230,21 +247,23 @@ class DeadlineWatch:
         )
         self.taken_out[name] = event.fallback
 
-    def _back(self, track: _Track, t: int) -> None:
+    def _back(self, track: _Track, iteration: int, t: int) -> None:
+        """The input has a value again, which arrived at iteration ``iteration`` (its
+        start ``t``: this one, or the last one when a component wrote it there)."""
         port = track.port
-        port._expired = False
+        port._expired = 0
         self.bits[0] &= ~track.bit
         track.total_ns += t - track.since_ns
         event = track.event
         if event is not None:
-            event.back_iteration = self.state.iteration
+            event.back_iteration = iteration
             event.back_time = t / 1e9
             track.event = None
         name = track.entry.spec.full_name
         self.notices.log(
             LogLevel.INFO, name,
             f"input {port.qualified_name!r} ({port.topic}) has a value again at iteration "
-            f"{self.state.iteration}, after {(t - track.since_ns) * 1e-9:.6f} s past its deadline",
+            f"{iteration}, after {(t - track.since_ns) * 1e-9:.6f} s past its deadline",
         )
         if name in self.taken_out and not any(
             w.port._expired for w in self._watched if w.entry is track.entry

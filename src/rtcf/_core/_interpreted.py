@@ -76,7 +76,9 @@ class Port(Generic[T]):
         self._loop: Any = _NO_LOOP  # the loop state a write reads (never None)
         self._seen = 0  # an input's: the slot's seq at its last read
         self._deadline_ns = 0  # an input's deadline (0: none); the loop's watch reads it
-        self._expired = False  # an input's: past its deadline (the watch sets and clears it)
+        # an input's: the slot's seq when the watch found it past its deadline (0: not
+        # past it); a value written since is new data at once
+        self._expired = 0
         # an output's: called with every written value while it is mapped or recorded
         self._tap: Callable[[Any], None] | None = None
 
@@ -142,7 +144,7 @@ class InputPort(Port[T]):
         seq = self._slot.seq
         if seq == 0:
             return _flow_status[0]
-        if self._expired:
+        if seq == self._expired:  # the value found too old is still the latest
             return _flow_status[3]
         return _flow_status[2] if seq != self._seen else _flow_status[1]
 
@@ -183,6 +185,7 @@ class InputPort(Port[T]):
 
 
 SKIPPED = -1  # a component's time column in an iteration it did not run in
+NO_LOOK = -2  # a DeadlineGate's last_iteration before its first look (no slot says -2)
 
 
 class CompiledPlans:
@@ -353,10 +356,15 @@ class HeartbeatWatch:
 
 class DeadlineGate:
     """The loop's last feeder where inputs have deadlines: per port k, a new value sets
-    ``seq[k]`` and ``due[k] = state.time_ns + its deadline``; calls ``fn`` (the watch's
-    full check) when one past its deadline has a value again or ``time_ns > due[k]``."""
+    ``seq[k]`` and ``due[k] = its arrival + its deadline``; calls ``fn`` (the watch's
+    full check) when one past its deadline has a value again or ``time_ns > due[k]``.
 
-    __slots__ = ("_due", "_ports", "_seq", "_state", "fn")
+    A value that came into the slot in the loop since the last look (a component's
+    write, or a lane's handover: its slot's iteration is 0 to ``last_iteration``)
+    arrived at the start of the last look's iteration (``last_time_ns``); one fed before
+    this look (the middleware's: its slot's iteration is -1), at this one's."""
+
+    __slots__ = ("_due", "_ports", "_seq", "_state", "fn", "last_iteration", "last_time_ns")
 
     def __init__(
         self, state: Any, ports: tuple[Any, ...], seq: Any, due: Any, fn: Callable[[], object]
@@ -368,25 +376,36 @@ class DeadlineGate:
         self._seq: Any = seq
         self._due = due
         self.fn = fn
+        self.last_iteration = NO_LOOK  # the iteration of the last look
+        self.last_time_ns = 0  # its start, on the loop's clock
 
     def __call__(self) -> object:
         seq = self._seq
         if seq is None:
             return None
-        t = self._state.time_ns
+        state = self._state
+        i, t = state.iteration, state.time_ns
         due = self._due
+        result = None
         k = 0  # (no enumerate: no tuple per input and iteration)
         for port in self._ports:
-            s = port._slot.seq
+            slot = port._slot
+            s = slot.seq
             if s != seq[k]:
                 if port._expired:  # back: the watch's check takes it from here
-                    return self.fn()
+                    result = self.fn()
+                    break
                 seq[k] = s
-                due[k] = t + port._deadline_ns
+                w = slot.iteration  # in the slot since the last look's iteration began?
+                arrival = self.last_time_ns if 0 <= w <= self.last_iteration else t
+                due[k] = arrival + port._deadline_ns
             elif t > due[k]:
-                return self.fn()
+                result = self.fn()  # (it reads the last look's iteration and time)
+                break
             k += 1
-        return None
+        self.last_iteration = i
+        self.last_time_ns = t
+        return result
 
     def release(self) -> None:
         """Let go of the words (calls do nothing after)."""
