@@ -195,6 +195,12 @@ def cmd_check(ns: argparse.Namespace) -> int:
                         f"{spec.module!r} is not in its allowed_modules "
                         f"({' '.join(target.settings.allowed_modules)})",
                         file=target.location.file, line=target.location.line)
+            problems = runner.hardware_problems()
+            if problems:  # each refusal the controller manager would answer with
+                for problem in problems[:-1]:
+                    _say(f"error: {target.location}: {problem}")
+                raise LaunchError(problems[-1], file=target.location.file,
+                                  line=target.location.line)
             print(
                 f"{deployment.source}: OK: runner {target.name}, {len(graph.order)} components, "
                 f"{len(graph.edges)} connections, order: " + " -> ".join(graph.order)

@@ -28,7 +28,7 @@ releases them. The hardware is shut down with the runner.
 from __future__ import annotations
 
 import os
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterable, Sequence
 from typing import Any
 
 import numpy as np
@@ -339,6 +339,30 @@ class HardwareLoop:
             if key[0] == name:
                 guard.reset()
         return ""
+
+    def preflight(self, controllers: Iterable[tuple[str, Any, bool]]) -> list[str]:
+        """What the controller manager would refuse, before anything runs (``rtcf
+        check``): each of ``controllers`` (name, component, whether it starts active)
+        naming an interface no hardware exports, and the interfaces two that start
+        active would both claim. ros2_control's words, one line each."""
+        claims = self.rm.claims
+        problems: list[str] = []
+        starting: dict[str, list[str]] = {}
+        reading: dict[str, list[str]] = {}
+        for name, component, autostart in controllers:
+            if not component._rtcf_bound:
+                continue
+            commands, states = required_interfaces(component)
+            controller = controller_name(name)
+            why = claims.check({controller: commands}, state_interfaces={controller: states})
+            if why:
+                problems.append(why)
+            elif autostart:
+                starting[controller], reading[controller] = commands, states
+        why = claims.check(starting, state_interfaces=reading)
+        if why:
+            problems.append(why)
+        return problems
 
     def release(self, name: str) -> None:
         """``name`` is no longer active: its claims go."""

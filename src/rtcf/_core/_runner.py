@@ -413,6 +413,15 @@ class Runner:
         """Why the mode does not let the loop run now (None: it does)."""
         return self._loop.not_ready_reason()
 
+    def hardware_problems(self) -> list[str]:
+        """What activating the loaded controllers on the robot's hardware would refuse
+        (an interface no hardware exports, one claimed twice): ``rtcf check``'s."""
+        if self.hardware is None:
+            return []
+        entries = self._components.entries
+        return self.hardware.preflight(
+            (name, e.component, e.autostart) for name, e in entries.items())
+
     def run(
         self,
         iterations: int | None = None,
