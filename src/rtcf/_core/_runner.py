@@ -70,7 +70,11 @@ class Runner:
         log_ring: RecordSink | None = None,
         log_emit: Callable[[int, str, str, int, int], None] | None = None,
         stop_flag: StopFlag | None = None,
+        offline: bool = False,
     ) -> None:
+        """``offline``: the robot description's hardware is built to ``on_init`` only,
+        never configured or activated (tools that inspect a launch file: no bus opened,
+        no device touched)."""
         self.settings = settings or RunnerSettings()
         self.name = name
         self.clock: Clock = clock or MonotonicClock()
@@ -86,7 +90,7 @@ class Runner:
         level = LogLevel[log_level.upper()] if isinstance(log_level, str) else log_level
         # the robot description's hardware, built here: in a worker, the loop's process
         self.hardware = HardwareLoop.from_settings(
-            self.settings, self.state, self._notices.ring, name)
+            self.settings, self.state, self._notices.ring, name, offline=offline)
         # the collaborators, each given what it needs (none sees the runner itself)
         self._components = Components(
             self.settings, self.parameters, self.state, self._notices, level
