@@ -27,6 +27,7 @@ from ._components import (
     StepSupervisor,
 )
 from ._diffbot import MujocoDiffbot, TwistSequence
+from ._mujoco_system import MujocoSystem
 
 __all__ = [
     "BareMinimum",
@@ -42,6 +43,7 @@ __all__ = [
     "Mimo",
     "MujocoArm",
     "MujocoDiffbot",
+    "MujocoSystem",
     "PaperExample",
     "ParameterHandling",
     "Pid",
