@@ -80,8 +80,8 @@ def test_the_arm_description_loads_it_and_maps_its_joints_to_the_models() -> Non
 
 def test_a_position_command_moves_the_joints_there_and_holds_them_against_gravity() -> None:
     rm = arm()
-    run(rm, 0.5)  # no controller yet (NaN commands): held where it started, upright
-    np.testing.assert_allclose(states(rm), 0.0, atol=1e-3)
+    run(rm, 0.5)  # no controller yet (NaN commands): held where it started (initial_value)
+    np.testing.assert_allclose(states(rm), [0.0, 0.3, 0.6], atol=1e-3)
     rm.claims.claim("arm_controller", positions())
     target = np.array([0.5, -0.6, 0.8])  # the upper arm and forearm out, under gravity
     run(rm, 2.0, positions(), target)
@@ -135,13 +135,11 @@ def test_velocity_commands_through_a_velocity_servo(tmp_path: Path) -> None:
 
 
 def test_initial_values_and_the_period_in_timesteps() -> None:
-    rm = arm(ARM.replace(  # joint1's, the first
-        '<state_interface name="position"/>',
-        '<state_interface name="position"><param name="initial_value">0.3</param>'
-        "</state_interface>", 1))
+    rm = arm(ARM.replace('<param name="initial_value">0.0</param>',  # joint1's
+                         '<param name="initial_value">0.25</param>'))
     system = impl(rm)
-    assert system.data.qpos[system.qadr[0]] == 0.3
-    np.testing.assert_allclose(states(rm), [0.3, 0.0, 0.0])
+    assert system.data.qpos[system.qadr].tolist() == [0.25, 0.3, 0.6]
+    np.testing.assert_allclose(states(rm), [0.25, 0.3, 0.6])
     rm.write_all(0.0, 0.0025)  # 2.5 timesteps: 2 now, the half carried to the next
     assert system.data.time == pytest.approx(0.002)
     rm.write_all(0.0025, 0.0025)
