@@ -37,8 +37,8 @@ State interfaces: ``position``, ``velocity``, ``effort`` (the actuators' torque 
 on the joint) and ``acceleration``. Initial positions and velocities are the state
 interfaces' ``initial_value``\\s. ``write`` steps the model by its ``period``, in steps of
 the model's timestep (a remainder is carried to the next write), the PD computed again
-before each step. ``read`` and ``write`` allocate nothing: the indices, gains and
-scratch arrays are made in ``on_init``, ``on_configure`` and the mode switch.
+before each step. ``read`` and ``write`` allocate nothing: the views, addresses and
+gains are made in ``on_init``, ``on_configure`` and the mode switch (the plan).
 """
 
 from __future__ import annotations
@@ -218,9 +218,10 @@ class MujocoSystem(rtcf.SystemInterface):
         self.scale = joints.scale
         n = len(self.joint_names)
         self.mode = [_first_mode(joint) for joint in info.joints]
-        self._scratch = {name: np.zeros(n) for name in (
-            "q", "qd", "bias", "value", "target_term", "kp", "kd", "gc", "A", "B", "C")}
-        self.target = {kind: np.zeros(n) for kind in COMMANDS}
+        # each joint's targets, Python floats: per joint, the loop below is faster in
+        # floats (from the interpreter's free list, no allocation) than numpy's calls
+        self.target = {kind: [0.0] * n for kind in COMMANDS}
+        self.plan: tuple[tuple[Any, ...], ...] = ()
 
     # ------------------------------------------------------------------- configure
 
@@ -251,14 +252,10 @@ class MujocoSystem(rtcf.SystemInterface):
             if joints:
                 rows = np.array([self.joint_names.index(j) for j in joints], dtype=np.intp)
                 self.reads.append((source, index[rows], self.joint_states(name)))
-        # the commands: each interface's view, where its joints are, and a scratch array
-        self.commands_in = []
-        for name in COMMANDS:
-            joints = self.joints_with_command(name)
-            if joints:
-                rows = np.array([self.joint_names.index(j) for j in joints], dtype=np.intp)
-                self.commands_in.append((self.joint_commands(name), rows, self.target[name],
-                                         np.zeros(len(rows)), np.zeros(len(rows), dtype=bool)))
+        # the commands: each interface's view, each value's place in it, and its target
+        self.commands_in = tuple(
+            (self.joint_commands(name), i, self.target[name], self.joint_names.index(joint))
+            for name in COMMANDS for i, joint in enumerate(self.joints_with_command(name)))
         self.hold()
         self._set_gains()
         self.read(0.0, 0.0)
@@ -272,7 +269,7 @@ class MujocoSystem(rtcf.SystemInterface):
         """Targets where the joints are, at rest, with no torque of their own."""
         rows = range(len(self.joint_names)) if rows is None else rows
         for j in rows:
-            self.target[POSITION][j] = self.data.qpos[self.qadr[j]]
+            self.target[POSITION][j] = float(self.data.qpos[self.qadr[j]])
             self.target[VELOCITY][j] = 0.0
             self.target[EFFORT][j] = 0.0
 
@@ -311,84 +308,72 @@ class MujocoSystem(rtcf.SystemInterface):
         return rtcf.ReturnType.OK
 
     def _set_gains(self) -> None:
-        self.feedback = coefficients(self.joints_in_model, self.mode, self._scratch)
+        self.plan, self.feedback = plan(self.joints_in_model, self.mode)
 
     # ----------------------------------------------------------------- read, write
 
-    # Every numpy call below is positional: the ndarray methods ``take``/``put`` with
-    # mode "clip" and the ufuncs with ``out`` as an argument write in place with no
-    # allocation, not even a moment's (np.take's default mode buffers its output, and
-    # keyword arguments and np.copyto's ``where`` allocate some hundred bytes a call).
+    # No allocation: numpy's ``take`` (positional, mode "clip": the default mode buffers
+    # its output) into the state views, and per joint Python floats, which come from the
+    # interpreter's free list (numpy's ufuncs cost a microsecond or more a call, and
+    # keyword arguments or np.copyto's ``where`` allocate a hundred bytes or more).
 
     def read(self, time: float, period: float) -> None:
         for source, index, view in self.reads:
             source.take(index, None, view, "clip")
 
     def write(self, time: float, period: float) -> None:
-        for command, rows, target, scratch, finite in self.commands_in:
-            target.take(rows, None, scratch, "clip")
-            np.putmask(scratch, np.isfinite(command, finite), command)  # NaN: not written
-            target.put(rows, scratch, "clip")
-        s = self._scratch
-        term, value = s["target_term"], s["value"]
-        np.multiply(s["A"], self.target[POSITION], term)
-        np.multiply(s["B"], self.target[VELOCITY], value)
-        np.add(term, value, term)
-        np.multiply(s["C"], self.target[EFFORT], value)
-        np.add(term, value, term)
+        for command, i, target, j in self.commands_in:
+            value = command.item(i)
+            if value == value:  # NaN: no controller wrote it, the last target stays
+                target[j] = value
         if not period > 0.0:
             return
         self.pending += period / self.dt
         steps = int(self.pending + 1e-6)
         self.pending -= steps
-        mujoco, model, data = self.mujoco, self.model, self.data
+        mujoco, model, data, ctrl = self.mujoco, self.model, self.data, self.ctrl
+        position, velocity, effort = (self.target[POSITION], self.target[VELOCITY],
+                                      self.target[EFFORT])
         if not self.feedback:
-            np.multiply(term, self.scale, value)
-            self.ctrl.put(self.actuator, value, "clip")
+            for j, _, _, actuator, a, b, c, _, _, _ in self.plan:
+                ctrl[actuator] = a * position[j] + b * velocity[j] + c * effort[j]
             if steps:
                 mujoco.mj_step(model, data, steps)
             return
-        q, qd, bias, kp, kd, gc = s["q"], s["qd"], s["bias"], s["kp"], s["kd"], s["gc"]
+        qpos, qvel, bias = self.qpos, self.qvel, self.bias
         for _ in range(steps):
-            self.qpos.take(self.qadr, None, q, "clip")
-            self.qvel.take(self.dofadr, None, qd, "clip")
-            self.bias.take(self.dofadr, None, bias, "clip")
-            np.multiply(kp, q, q)
-            np.multiply(kd, qd, qd)
-            np.multiply(gc, bias, bias)
-            np.subtract(term, q, value)
-            np.subtract(value, qd, value)
-            np.add(value, bias, value)
-            np.multiply(value, self.scale, value)
-            self.ctrl.put(self.actuator, value, "clip")
+            for j, qadr, dof, actuator, a, b, c, kp, kd, gc in self.plan:
+                ctrl[actuator] = (a * position[j] + b * velocity[j] + c * effort[j]
+                                  - kp * qpos.item(qadr) - kd * qvel.item(dof)
+                                  + gc * bias.item(dof))
             mujoco.mj_step(model, data)
 
 
-def coefficients(joints: MujocoJoints, modes: Sequence[set[str]],
-                 out: dict[str, np.ndarray]) -> bool:
-    """Per joint, in its mode: ``value = A position + B velocity + C effort - kp q
-    - kd qd + gc bias`` (the targets' part fixed in a write, the rest per step), into
-    ``out``'s arrays; whether any joint has a part per step (a PD)."""
-    for name in ("A", "B", "C", "kp", "kd", "gc"):
-        out[name][:] = 0.0
-    kp, kd, kv = joints.gains["kp"], joints.gains["kd"], joints.gains["kv"]
-    gc = 1.0 if joints.gravity_compensation else 0.0
+def plan(joints: MujocoJoints, modes: Sequence[set[str]]) -> tuple[tuple[Any, ...], bool]:
+    """Per joint, in its mode, the control of its actuator: ``ctrl = a position + b
+    velocity + c effort - kp q - kd qd + gc bias`` (the targets, the joint's position,
+    velocity and bias force; the actuator's scale folded in), as ``(joint, qpos address,
+    dof address, actuator, a, b, c, kp, kd, gc)``; and whether any joint has a part
+    that changes with each step (a PD)."""
+    rows = []
+    gains, gc = joints.gains, 1.0 if joints.gravity_compensation else 0.0
     for j, (kind, mode) in enumerate(zip(joints.kinds, modes, strict=True)):
+        kp, kd, kv = gains["kp"][j], gains["kd"][j], gains["kv"][j]
+        # a, b, c, kp, kd, gc
         if kind == POSITION_SERVO:
-            out["A"][j] = 1.0
+            row = (1.0, 0.0, 0.0, 0.0, 0.0, 0.0)
         elif kind == VELOCITY_SERVO:
-            out["B"][j] = 1.0
+            row = (0.0, 1.0, 0.0, 0.0, 0.0, 0.0)
         elif mode == {EFFORT}:
-            out["C"][j] = 1.0
+            row = (0.0, 0.0, 1.0, 0.0, 0.0, 0.0)
         elif POSITION in mode:
-            out["A"][j] = out["kp"][j] = kp[j]
-            out["kd"][j] = kd[j]
-            out["B"][j] = kd[j] if VELOCITY in mode else 0.0
-            out["gc"][j] = gc
+            row = (kp, kd if VELOCITY in mode else 0.0, 0.0, kp, kd, gc)
         else:
-            out["B"][j] = out["kd"][j] = kv[j]
-            out["gc"][j] = gc
-    return bool(out["kp"].any() or out["kd"].any() or out["gc"].any())
+            row = (0.0, kv, 0.0, 0.0, kv, gc)
+        scale = float(joints.scale[j])
+        rows.append((j, int(joints.qadr[j]), int(joints.dofadr[j]), int(joints.actuator[j]),
+                     *(float(x) * scale for x in row)))
+    return tuple(rows), any(any(r[7:]) for r in rows)
 
 
 def _drives(kind: str, mode: set[str]) -> bool:
