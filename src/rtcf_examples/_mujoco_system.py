@@ -292,7 +292,7 @@ class MujocoSystem(rtcf.SystemInterface):
             kind = self.kinds[j]
             if not _drives(kind, mode):
                 self.logger.error(
-                    "%s: joint '%s' cannot be commanded by %s at once (its %s takes: %s)",
+                    "%s: joint '%s' cannot be commanded by %s (its %s takes: %s)",
                     self.info.name, self.joint_names[j], " and ".join(sorted(mode)), kind,
                     "; ".join(" and ".join(sorted(m)) for m in MODES if _drives(kind, m)))
                 return rtcf.ReturnType.ERROR

@@ -196,6 +196,29 @@ def test_a_command_the_actuator_cannot_take_is_refused(tmp_path: Path) -> None:
         MujocoSystem().init(info)
 
 
+def test_a_mode_the_actuator_cannot_take_is_refused_at_the_switch(tmp_path: Path,
+                                                                   caplog) -> None:
+    from rtcf._core._interface_claims import ClaimError
+
+    servo = ARM_MODEL.replace('<motor name="joint3" joint="joint3"/>',
+                              '<position name="joint3" joint="joint3" kp="100" kv="10"/>')
+    urdf = _with_model(tmp_path, servo)
+    effort = urdf.rindex('<command_interface name="effort">')  # joint3's: a servo takes none
+    urdf = urdf[:effort] + urdf[urdf.index("</command_interface>", effort) + 21:]
+    rm = arm(urdf)
+    assert impl(rm).kinds == ["motor", "motor", "position servo"]
+    with caplog.at_level(logging.ERROR), pytest.raises(
+            ClaimError, match="prepare command mode switch was rejected"):
+        rm.claims.claim("velocity_controller", ["joint3/velocity"])
+    assert any("joint 'joint3' cannot be commanded by velocity (its position servo "
+               "takes: position; position and velocity)" in r.getMessage()
+               for r in caplog.records)
+    # position (and velocity beside it) is the servo's: it goes there
+    rm.claims.claim("arm_controller", positions())
+    run(rm, 1.5, positions(), np.array([0.2, 0.5, -0.4]))
+    np.testing.assert_allclose(states(rm), [0.2, 0.5, -0.4], atol=0.05)
+
+
 def test_read_and_write_allocate_nothing() -> None:
     rm = arm()
     rm.claims.claim("arm_controller", [*positions(), *positions("velocity")])
