@@ -44,7 +44,7 @@ def test_robot_state_publishers_description_by_its_topic(tmp_path: Path) -> None
         "runner /controller_manager: robot description from robot_state_publisher "
         "/robot_state_publisher's parameter robot_description (topic /robot_description) "
         f"({tmp_path / 'bringup.launch.xml'}:4): hardware arm (system, "
-        "rtcf_examples/MujocoArm: 3 joints)"]
+        "rtcf_examples/MujocoSystem: 3 joints)"]
 
 
 def test_the_topics_must_meet(tmp_path: Path) -> None:
