@@ -161,11 +161,12 @@ def test_a_joint_the_model_lacks_is_one_line(tmp_path: Path, caplog) -> None:
     with pytest.raises(rtcf.ConfigurationError) as raised:
         MujocoSystem().init(info)
     assert str(raised.value) == expected
-    # through the resource manager: the hardware fails to initialize, and the log says why
-    with caplog.at_level(logging.ERROR), pytest.raises(
-            rtcf.ConfigurationError, match="'arm' from plugin 'rtcf_examples/MujocoSystem' "
-                                           "failed to initialize"):
+    # through the resource manager: the hardware fails to initialize, one line saying why
+    with caplog.at_level(logging.ERROR), pytest.raises(rtcf.ConfigurationError) as failed:
         ResourceManager.from_urdf(urdf)
+    assert str(failed.value) == ("System hardware component 'arm' from plugin "
+                                 "'rtcf_examples/MujocoSystem' failed to initialize. "
+                                 f"ConfigurationError: {expected}")
     assert any(expected in r.getMessage() for r in caplog.records)
 
 
