@@ -36,7 +36,7 @@ import numpy as np
 from ._command_limits import CommandGuard, Counters, JointLimits
 from ._errors import ConfigurationError
 from ._hardware import ReturnType
-from ._interface_claims import ClaimError, InterfaceClaims
+from ._interface_claims import ClaimError, InterfaceClaims, Resources
 from ._interface_ports import COMMAND, HardwareKeys, required_interfaces
 from ._lifecycle import (
     ACTIVE,
@@ -350,7 +350,7 @@ class HardwareLoop:
         active would both claim. ros2_control's words, one line each."""
         # whether each interface exists, whatever its hardware's state (offline: none
         # is configured), in the claims' own words
-        claims = InterfaceClaims(cast(ResourceManager, _Exported(self.rm)), True, self.log)
+        claims = InterfaceClaims(cast(Resources, _Exported(self.rm)), True, self.log)
         problems: list[str] = []
         starting: dict[str, list[str]] = {}
         reading: dict[str, list[str]] = {}

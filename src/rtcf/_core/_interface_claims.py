@@ -16,14 +16,44 @@ from __future__ import annotations
 
 import difflib
 from collections.abc import Iterable, Mapping, Sequence
-from typing import TYPE_CHECKING, Any
+from typing import Any, Protocol
 
 from ._errors import RtcfError
 from ._hardware import ReturnType, return_result
 from ._lifecycle import ACTIVE, INACTIVE, STATE_LABELS
 
-if TYPE_CHECKING:
-    from ._resource_manager import ResourceManager
+
+class Resources(Protocol):
+    """What the claims ask of a resource manager (rtcf._core._resource_manager's)."""
+
+    @property
+    def command_index(self) -> Mapping[str, int]: ...
+
+    @property
+    def state_index(self) -> Mapping[str, int]: ...
+
+    @property
+    def command_keys(self) -> Sequence[str]: ...
+
+    @property
+    def state_keys(self) -> Sequence[str]: ...
+
+    @property
+    def components(self) -> Mapping[str, Any]: ...
+
+    def command_interface_exists(self, key: str) -> bool: ...
+
+    def command_interface_is_available(self, key: str) -> bool: ...
+
+    def state_interface_is_available(self, key: str) -> bool: ...
+
+    def hardware_of(self, key: str) -> str: ...
+
+    def command_owners(self) -> Iterable[tuple[Any, Mapping[str, int]]]:
+        """Each hardware that is written (actuators, then systems) and its command
+        interfaces' indices by key."""
+        ...
+
 
 
 class ClaimError(RtcfError):
@@ -31,9 +61,9 @@ class ClaimError(RtcfError):
 
 
 class InterfaceClaims:
-    """Which controller holds which command interface of a :class:`ResourceManager`."""
+    """Which controller holds which command interface of a resource manager."""
 
-    def __init__(self, resources: ResourceManager, allow_inactive_hardware: bool,
+    def __init__(self, resources: Resources, allow_inactive_hardware: bool,
                  logger: Any) -> None:
         self.resources = resources
         self.allow_inactive_hardware = allow_inactive_hardware
@@ -215,8 +245,7 @@ class InterfaceClaims:
         """(name, component, its start keys, its stop keys) of each hardware with some,
         actuators before systems, as ros2_control asks them."""
         resources = self.resources
-        for component in resources._writers:
-            mine = resources._layouts[component.name][1].index
+        for component, mine in resources.command_owners():
             starting = [key for key in start if key in mine]
             stopping = [key for key in stop if key in mine]
             if starting or stopping:

@@ -31,7 +31,7 @@ its ``<plugin>`` (:mod:`._hardware_plugins`), runs ``on_init``, and from then on
 from __future__ import annotations
 
 import logging
-from collections.abc import Callable, Iterable, Mapping, Sequence
+from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
 from dataclasses import dataclass, field
 from typing import Any, NamedTuple
 
@@ -409,6 +409,12 @@ class ResourceManager:
         self.available_commands.difference_update(commands.names)
 
     # -------------------------------------------------------------- what it exports
+
+    def command_owners(self) -> Iterator[tuple[HardwareComponent, Mapping[str, int]]]:
+        """Each hardware that is written (actuators, then systems) and its command
+        interfaces' indices by key (the claims' mode switches ask them)."""
+        for component in self._writers:
+            yield component, self._layouts[component.name][1].index
 
     def hardware_of(self, key: str) -> str:
         """The hardware that exports command or state interface ``key`` ("" if none)."""

@@ -45,13 +45,14 @@ import time
 import xmlrpc.client
 from typing import TYPE_CHECKING, Any
 
-from .._core._errors import RtcfError
+from .._core._errors import Location, RtcfError
 from .._core._faults import FailurePolicy
 from .._core._lane_names import lane_from_params
 from .._core._log import LogLevel
 from .._core._rates import Rate
 from .._core._runner import ComponentSpec
 from .._core._settings import RunnerSettings
+from .._launch._robot_descriptions import read as read_description
 from .._launch._rosconsole import from_environment as rosconsole_config
 from .._runtime._request_fields import RequestRefused, check_request
 from .._runtime._requests import Request, RequestQueue, serve_request, stop_on_signals
@@ -158,6 +159,7 @@ def runner_main(argv: list[str] | None = None) -> int:
         settings = RunnerSettings.from_params(
             _private_params(rospy), where=f"rt_runner {name}"
         )
+        _robot_description(rospy, settings, name)
     except RtcfError as exc:
         _say(name, f"error: {exc}")
         bridge.shutdown()
@@ -313,6 +315,22 @@ def runner_main(argv: list[str] | None = None) -> int:
         bridge.shutdown()
         _say(name, f"stopped after {iterations} iterations")
     return status
+
+
+def _robot_description(rospy: Any, settings: RunnerSettings, name: str) -> None:
+    """The runner's robot description, as ros_control finds it: its own parameter, else
+    ``robot_description`` searched from its namespace up (a launch file's
+    ``<param name="robot_description" command="xacro ..."/>``); parsed here, so that a
+    broken one is one line naming the parameter, and given to the worker."""
+    if settings.robot_description or settings.robot_description_file:
+        return
+    key = rospy.search_param("robot_description")
+    text = rospy.get_param(key, None) if key else None
+    if not isinstance(text, str) or not text.strip():
+        return
+    described = read_description(text, Location(key), f"parameter {key}")
+    settings.robot_description = text
+    _say(name, described.summary())
 
 
 def _private_params(rospy: Any) -> dict[str, Any]:

@@ -15,24 +15,31 @@ applied between two iterations, as a controller's lifecycle transition is.
 from __future__ import annotations
 
 import threading
-from typing import TYPE_CHECKING, Any
+from collections.abc import Callable
+from typing import Any
 
 from .._core._hardware_loop import HARDWARE_PREFIX
 from .._core._lifecycle import ACTIVE, INACTIVE, STATE_LABELS, SUCCESS, TransitionOutcome
-from ._updates import change_states
-
-if TYPE_CHECKING:
-    from ._supervisor import WorkerRunner
+from ._admission import Admission
+from ._updates import WorkerUpdates, change_states
 
 
 class HardwareView:
-    """What ``runner``'s worker said of its hardware, kept up to date by its outcomes."""
+    """What a worker said of its hardware (``summary``), kept up to date by the outcomes
+    its supervisor hears (``listeners``): given what it needs of the supervisor, not the
+    supervisor itself."""
 
-    def __init__(self, runner: WorkerRunner, summary: list[dict[str, Any]]) -> None:
-        self._runner = runner
+    def __init__(self, summary: list[dict[str, Any]],
+                 listeners: list[Callable[[str, TransitionOutcome], None]],
+                 admission: Admission, updates: WorkerUpdates, hand_over: Callable[[], None],
+                 introspect: Callable[[], dict[str, Any]]) -> None:
+        self._admission = admission
+        self._updates = updates
+        self._hand_over = hand_over
+        self._introspect = introspect
         self._lock = threading.Lock()
         self.components = {str(c["name"]): dict(c) for c in summary}
-        runner.transition_listeners.append(self._heard)
+        listeners.append(self._heard)
 
     def __bool__(self) -> bool:
         return bool(self.components)
@@ -49,17 +56,16 @@ class HardwareView:
                   timeout: float = 10.0) -> tuple[bool, int, str]:
         """``set_hardware_component_state``: (ok, the state's id, its label); applied by
         the loop between two iterations (or by the worker between runs)."""
-        runner = self._runner
-        runner.admission.refuse_if_locked("hardware state changes")
+        self._admission.refuse_if_locked("hardware state changes")
         outcome = change_states(
-            [(runner._updates, runner._hand_over, HARDWARE_PREFIX + name, str(target))],
+            [(self._updates, self._hand_over, HARDWARE_PREFIX + name, str(target))],
             timeout)[0]
         return outcome.result == SUCCESS, outcome.end, STATE_LABELS.get(outcome.end, "unknown")
 
     def claimed(self) -> set[str]:
         """The command interfaces the active controllers claim."""
         out: set[str] = set()
-        for info in self._runner.introspect().get("components", []):
+        for info in self._introspect().get("components", []):
             if info.get("lifecycle") == "active":
                 out.update(info.get("interfaces", ((), ()))[0])
         return out

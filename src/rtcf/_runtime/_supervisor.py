@@ -152,7 +152,9 @@ class WorkerRunner:
             process.clock_bell_fd,
         )
         # what the worker built of the robot description: the controller manager's view
-        self.hardware = HardwareView(self, hello.get("hardware", []))
+        self.hardware = HardwareView(
+            hello.get("hardware", []), self.transition_listeners, self.admission,
+            self._updates, self._hand_over, self.introspect)
         self.refresh_introspection()
         return self
 
