@@ -290,7 +290,8 @@ def runner_main(argv: list[str] | None = None) -> int:
     stop_asked = stop_on_signals(lambda: runner.request_stop(abort=True))
 
     def load(payload: Any) -> str:
-        spec, launcher = _spec(payload)
+        # a launcher's request (its fields), or a controller's spec (load_controller)
+        spec, launcher = (payload, "") if isinstance(payload, ComponentSpec) else _spec(payload)
         if spec.log_level is None:  # the launcher gave none: this runner's --log-level
             spec.log_level = args_log_level(ros_logger_name(spec.full_name))
         runner.load(spec, launcher=launcher)
