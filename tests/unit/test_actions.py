@@ -350,10 +350,10 @@ def test_decisions_feedback_and_results_allocate_nothing_per_call() -> None:
     assert _server_blocks(10) == _server_blocks(40) <= 1  # at most `active`'s tuple
 
 
-def test_the_events_are_one_object_and_the_testing_trace_copies_them() -> None:
+def test_the_events_are_preallocated_objects_and_the_testing_trace_copies_them() -> None:
     trace = run_components([FibServer], 6, actions={NAME: {1: Goal(Fibonacci.Goal(3), id=1)}})
     server = trace.components["/FibServer"].fib
-    assert server._events._slot.value is server._event
+    assert any(server._events._slot.value is e for e in server._events_made)
     goal = trace.actions[NAME].goals[1]
     assert [fb.sequence for _, fb in goal.feedback] == [[0, 1, 1], [0, 1, 1, 2]]
     assert goal.states[-1][1] == S.SUCCEEDED and goal.result == Fibonacci.Result([0, 1, 1, 2])

@@ -184,7 +184,7 @@ def _launcher_error(n: NodeDescription, params: dict[str, Any] | None = None) ->
         ("rtcf_examples Sine -f", {"/c/is_first": False},
          "conflicting is_first: args has -f but parameter ~is_first is false"),
         ("rtcf_examples Sine", {"/c/is_first": "maybe"},
-         "parameter ~is_first is 'maybe'; use true or false"),
+         "parameter '~is_first' is 'maybe'; use true or false"),
         ("rtcf_examples Sine", {"/c/topics_ignore_for_graph": 5},
          "parameter ~topics_ignore_for_graph is 5; it must be a regex string"),
     ],

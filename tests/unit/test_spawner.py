@@ -89,8 +89,8 @@ def test_controller_ros_args_are_the_controllers_remaps_and_parameters() -> None
     request = parse(spawner(
         "a --controller-ros-args '-r ~/cmd_vel:=/cmd_vel -p gain:=2 -p names:=[x,y]' "
         "--controller-ros-args '--ros-args --remap odom:=/odom --param frame:=odom'"))
-    assert request.remaps == [("~/cmd_vel", "/cmd_vel"), ("odom", "/odom")]
-    assert request.ros_params == {"gain": 2, "names": ["x", "y"], "frame": "odom"}
+    assert request.options.remaps == [("~/cmd_vel", "/cmd_vel"), ("odom", "/odom")]
+    assert request.options.params == {"gain": 2, "names": ["x", "y"], "frame": "odom"}
 
 
 def test_spawner_nodes_are_named_as_the_spawner_names_itself() -> None:

@@ -28,6 +28,7 @@ from .._launch._files import load_deployment
 from .._runtime._admission import access_of
 from .._runtime._live import FoxgloveLive, RecordSinks
 from .._runtime._mcap import McapRecording
+from .._runtime._served_runs import run_serving
 from .._runtime._supervisor import Bridge, LiveStatus, WorkerRunner
 from . import _evaluate, _recording_tools
 from . import _replay as _replay_command
@@ -245,7 +246,7 @@ def cmd_launch(ns: argparse.Namespace) -> int:
         bridge=bridge,
     )
     runner.lanes.say = False  # its lanes line below says where each lane runs
-    runner.controller_setup = target.controllers  # list_controller_types, load refusals
+    runner.controller_setup = target.controllers  # load_controller's types and parameters
     status = 0
     nodes = OtherNodes(deployment.other_nodes, deployment.parameters, say=_say_above,
                        write=_write_above, on_shutdown=lambda: runner.request_stop(abort=True))
@@ -307,7 +308,9 @@ def cmd_launch(ns: argparse.Namespace) -> int:
         nodes.start()  # the file's other nodes, as ros2 launch would (_other_nodes)
         started = time.perf_counter()
         try:
-            result = runner.run(iterations, trace=ns.trace, record=sink)
+            result = run_serving(runner, iterations, say=_say_above, trace=ns.trace, record=sink
+                                 ) if bridge is not None else runner.run(
+                iterations, trace=ns.trace, record=sink)  # loads between runs: _served_runs
         except RtcfError as exc:  # a component, a watchdog, a hook that hung, a dead worker
             if ns.debug:
                 print(getattr(exc, "worker_traceback", ""), file=sys.stderr, end="")

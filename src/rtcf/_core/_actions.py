@@ -9,10 +9,13 @@ machine allows (:mod:`._action_protocol`). A call the protocol forbids raises
 
 The real-time path: ``request()`` with nothing waiting is one compare; a decision
 moves a table entry and writes one event (the port's tap carries it to a bridge).
-Nothing is allocated per call: the table and the one :class:`ActionEvent` every
-decision, feedback and result is written as are made in ``configure`` and rewritten
-in place (a tap copies what it keeps at once, as a bridge's and ``rtcf.testing``'s
-do; an input reading the events port sees the latest event, as for any port), and
+Nothing is allocated per call: the table and the :class:`ActionEvent` objects that
+decisions, feedback and results are written as are made in ``configure``. Each write
+takes the next of them, in rotation, and rewrites it: an input that reads the events
+port (in another lane too) holds an event that no later write of this iteration or
+the next changes (there are twice as many as one iteration can write: one decision,
+and a feedback and a result per open goal), and a tap copies what it keeps at once,
+as a bridge's and ``rtcf.testing``'s do; and
 ``active`` is a tuple built when it is read after the open goals changed, not per
 read. Feedback and results may be :class:`rtcf.Serialized` of the action's
 Feedback and Result: laid out in ``configure`` and rewritten in the loop, they cross
@@ -105,8 +108,12 @@ class ActionServer:
         self._active: tuple[int, ...] | None = ()  # None: to build at the next read
         self._pending: ActionRequest | None = None  # handed out, not yet decided
         self.expired = 0  # requests taken after their deadline: dropped, never handed out
-        # every event is this one, rewritten: nothing is allocated per write
-        self._event = ActionEvent(RESPONSE, 0, UNKNOWN)
+        # the events written, in rotation: nothing is allocated per write, and an event
+        # a reader holds stays as it was for two iterations' writes (one iteration
+        # writes at most a decision, and a feedback and a result per open goal)
+        self._events_made = tuple(ActionEvent(RESPONSE, 0, UNKNOWN)
+                                  for _ in range(2 * (2 * max_goals + 1)))
+        self._next_event = 0
         # a Serialized written as feedback or a result must be of these classes
         self._feedback_class = getattr(action_type, "Feedback", None)
         self._result_class = getattr(action_type, "Result", None)
@@ -291,7 +298,9 @@ class ActionServer:
         return -1
 
     def _write(self, kind: int, goal_id: int, status: int, message: Any, flags: int) -> None:
-        event = self._event
+        i = self._next_event
+        event = self._events_made[i]
+        self._next_event = i + 1 if i + 1 < len(self._events_made) else 0
         event.kind = kind
         event.goal_id = goal_id
         event.status = status

@@ -7,6 +7,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass, field
 from typing import Any
 
+from ._booleans import parse_bool
 from ._errors import ConfigurationError
 from ._names import validate_name
 
@@ -222,13 +223,10 @@ class RunnerSettings:
 
 
 def _to_bool(v: Any) -> bool:
-    if isinstance(v, bool):
-        return v
-    if isinstance(v, str) and v.lower() in ("true", "1", "false", "0"):
-        return v.lower() in ("true", "1")
-    if isinstance(v, int):
-        return bool(v)
-    raise ValueError(v)
+    try:
+        return parse_bool(v, "")  # the caller names the setting
+    except ConfigurationError:
+        raise ValueError(v) from None
 
 
 def _to_int(v: Any) -> int:

@@ -18,42 +18,15 @@ merged in order, later values winning, as rclpy does.
 
 from __future__ import annotations
 
-import re
 from collections.abc import Iterable
 from dataclasses import dataclass, field
 from typing import Any
 
-import yaml
-
 from .._core._errors import ConfigurationError
-from .._core._names import basename
 from .._core._settings import RunnerSettings
+from ._ros_parameters import params_for, params_key_matches, read_sections
 
-
-def params_key_matches(key: str, full_name: str) -> bool:
-    """Whether a parameters file's node key ``key`` applies to node ``full_name``."""
-    if key in (basename(full_name), full_name, full_name.lstrip("/")):
-        return True
-    if "*" not in key:
-        return False
-    parts = key.strip("/").split("/")
-    regex = "".join(
-        "(?:/[^/]+)*" if part == "**" else "/" + re.escape(part).replace(r"\*", "[^/]*")
-        for part in parts
-    )
-    return re.fullmatch(regex, full_name) is not None
-
-
-def _flat(tree: dict[str, Any], prefix: str = "") -> dict[str, Any]:
-    """``{a: {b: 1}}`` -> ``{"a.b": 1}``: ROS 2's names for nested parameters."""
-    out: dict[str, Any] = {}
-    for key, value in tree.items():
-        name = f"{prefix}{key}"
-        if isinstance(value, dict):
-            out.update(_flat(value, name + "."))
-        else:
-            out[name] = value
-    return out
+__all__ = ["ControllerSetup", "params_key_matches", "read_setup"]
 
 
 @dataclass
@@ -64,16 +37,14 @@ class ControllerSetup:
     files: tuple[str, ...] = ()
     update_rate: float | None = None
     types: dict[str, str] = field(default_factory=dict)  # controller name -> its type
-    # per file, its sections: node key -> flattened ros__parameters
+    # per file, its sections: node key -> ros__parameters (_ros_parameters)
     _sections: list[tuple[str, dict[str, dict[str, Any]]]] = field(default_factory=list)
 
     def params_for(self, full_name: str) -> dict[str, Any]:
         """The flattened ``ros__parameters`` of node ``full_name`` (a controller)."""
         merged: dict[str, Any] = {}
         for _, sections in self._sections:
-            for key, params in sections.items():
-                if params_key_matches(key, full_name):
-                    merged.update(params)
+            merged.update(params_for(sections, full_name))
         return merged
 
     def set_frequency(self, settings: RunnerSettings, given: bool, where: str) -> None:
@@ -97,7 +68,7 @@ def read_setup(paths: Iterable[str], manager: str) -> ControllerSetup:
     """The setup of controller manager ``manager`` (a full name) from parameters files."""
     setup = ControllerSetup(manager=manager, files=tuple(str(p) for p in paths))
     for path in setup.files:
-        setup._sections.append((path, _sections_of(path)))
+        setup._sections.append((path, read_sections(path)))
     own = setup.params_for(manager)
     rate = own.get("update_rate")
     if rate is not None:
@@ -117,24 +88,3 @@ def read_setup(paths: Iterable[str], manager: str) -> ControllerSetup:
                 )
             setup.types[name] = value
     return setup
-
-
-def _sections_of(path: str) -> dict[str, dict[str, Any]]:
-    try:
-        with open(path, encoding="utf-8") as f:
-            data = yaml.safe_load(f)
-    except OSError as exc:
-        raise ConfigurationError(f"{path}: cannot read the parameters file: "
-                                 f"{exc.strerror}") from None
-    except yaml.YAMLError as exc:
-        raise ConfigurationError(f"{path}: not valid YAML: {exc}".replace("\n", " ")) from None
-    if not isinstance(data, dict):
-        raise ConfigurationError(
-            f"{path}: a ROS 2 parameters file must map node names to {{ros__parameters: ...}}")
-    sections: dict[str, dict[str, Any]] = {}
-    for key, entry in data.items():
-        if not isinstance(entry, dict) or not isinstance(entry.get("ros__parameters"), dict):
-            raise ConfigurationError(f"{path}: entry {key!r} has no 'ros__parameters' mapping")
-        sections[str(key)] = _flat(entry["ros__parameters"])
-    return sections
-

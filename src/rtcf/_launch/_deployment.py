@@ -24,8 +24,8 @@ from __future__ import annotations
 
 import shlex
 from dataclasses import dataclass, field
-from typing import Any
 
+from .._core._booleans import parse_bool
 from .._core._errors import ConfigurationError, LaunchError, Location
 from .._core._faults import FailurePolicy
 from .._core._lane_names import lane_from_params
@@ -278,16 +278,15 @@ def _component_spec(node: NodeDescription, params: ParameterStore) -> tuple[Comp
                 "or parameter ~rt_package"
             )
     is_first = is_first_flag
+    try:  # the one boolean parser: an error names the parameter
+        value = parse_bool(private.get("is_first", False), "~is_first")
+        autostart = parse_bool(private.get("autostart", True), "~autostart")
+    except ConfigurationError as exc:
+        raise err(exc.message) from None
     if "is_first" in private:
-        value = _as_bool(private["is_first"])
-        if value is None:
-            raise err(f"parameter ~is_first is {private['is_first']!r}; use true or false")
         if is_first_flag and not value:
             raise err("conflicting is_first: args has -f but parameter ~is_first is false")
         is_first = is_first or value
-    autostart = _as_bool(private.get("autostart", True))
-    if autostart is None:
-        raise err(f"parameter ~autostart is {private['autostart']!r}; use true or false")
     ignore = private.get("topics_ignore_for_graph", "")
     if not isinstance(ignore, str):
         raise err(f"parameter ~topics_ignore_for_graph is {ignore!r}; it must be a regex string")
@@ -343,13 +342,3 @@ def _pick_runner(
             line=loc.line,
         )
     return runners[0]
-
-
-def _as_bool(value: Any) -> bool | None:
-    if isinstance(value, bool):
-        return value
-    if isinstance(value, str) and value.lower() in ("true", "false"):
-        return value.lower() == "true"
-    if isinstance(value, int):
-        return bool(value)
-    return None

@@ -21,18 +21,12 @@ from __future__ import annotations
 import os
 import shlex
 from dataclasses import dataclass, field
-from typing import Any
-
-import yaml
 
 from .._core._errors import ConfigurationError, LaunchError
-from .._core._faults import FailurePolicy
-from .._core._lane_names import lane_from_params
 from .._core._names import expand, namespace_of
-from .._core._rates import Rate
 from .._core._runner import ComponentSpec
-from ._controller_setup import ControllerSetup, read_setup
-from ._controller_types import resolve
+from ._controller_setup import ControllerSetup
+from ._controller_specs import NodeOptions, controller_params, controller_spec, node_options
 from ._description import NodeDescription
 
 PACKAGE = "controller_manager"
@@ -97,9 +91,7 @@ class SpawnRequest:
     ignored: list[str] = field(default_factory=list)  # options that change nothing here
     # --controller-ros-args, for every NAME: its node's remaps, --params-file files and
     # -p parameters (dotted names, YAML-typed values)
-    remaps: list[tuple[str, str]] = field(default_factory=list)
-    ros_params_files: list[str] = field(default_factory=list)
-    ros_params: dict[str, Any] = field(default_factory=dict)
+    options: NodeOptions = field(default_factory=NodeOptions)
 
 
 def _error(node: NodeDescription, message: str) -> LaunchError:
@@ -165,51 +157,12 @@ def parse(node: NodeDescription) -> SpawnRequest:
 def _controller_ros_args(node: NodeDescription, text: str, request: SpawnRequest) -> None:
     """One ``--controller-ros-args`` value, as the controller's node reads its ROS
     arguments (``[--ros-args] -r FROM:=TO -p NAME:=VALUE --params-file FILE``)."""
-    def bad(problem: str) -> LaunchError:
-        return _error(node, f"--controller-ros-args {text!r}: {problem}")
-
     try:
-        words = shlex.split(text)
+        request.options.add(node_options(shlex.split(text)))
     except ValueError as exc:
-        raise bad(f"cannot be split: {exc}") from None
-    i = 0
-    while i < len(words):
-        word = words[i]
-        i += 1
-        if word in ("--ros-args", "--"):
-            continue
-        if word not in ("-r", "--remap", "-p", "--param", "--params-file"):
-            raise bad(f"{word!r} is not read; rtcf reads -r/--remap FROM:=TO, "
-                      "-p/--param NAME:=VALUE and --params-file FILE")
-        if i == len(words):
-            raise bad(f"{word} needs a value")
-        value = words[i]
-        i += 1
-        if word == "--params-file":
-            path = os.path.abspath(value)
-            if not os.path.isfile(path):
-                raise bad(f"--params-file {path!r} does not exist")
-            request.ros_params_files.append(path)
-            continue
-        left, assign, right = value.partition(":=")
-        if not assign or not left:
-            raise bad(f"{word} {value!r} is not NAME:=VALUE")
-        if word in ("-p", "--param"):
-            request.ros_params[left] = _yaml_value(right)
-        elif left.startswith("__") or (":" in left and not left.startswith(("/", "~"))):
-            raise bad(f"the remap {value!r} is not read: the controller is named NAME in "
-                      "its controller manager's namespace (give -c/-n to the spawner), "
-                      "and node-specific rules (node:from:=to) are not read")
-        else:
-            request.remaps.append((left, right))
-
-
-def _yaml_value(text: str) -> Any:
-    """A ``-p`` value as rcl reads it: YAML (``1`` an int, ``[1.0, 2.0]`` an array)."""
-    try:
-        return yaml.safe_load(text) if text else ""
-    except yaml.YAMLError:
-        return text
+        raise _error(node, f"--controller-ros-args {text!r}: cannot be split: {exc}") from None
+    except ConfigurationError as exc:
+        raise _error(node, f"--controller-ros-args {text!r}: {exc.message}") from None
 
 
 def controller_specs(node: NodeDescription, request: SpawnRequest,
@@ -217,13 +170,16 @@ def controller_specs(node: NodeDescription, request: SpawnRequest,
     """One component per NAME, loaded as the controller manager ``setup`` would load
     it (``setup`` None: the runner was given no parameters file)."""
     namespace = namespace_of(request.manager)
-    own_files = [*request.param_files, *request.ros_params_files]
-    extra = read_setup(own_files, request.manager) if own_files else None
     specs: list[ComponentSpec] = []
     for name in request.names:
         full = expand(name, namespace)
-        own = extra.params_for(full) if extra is not None else {}
-        type_name = request.type_name or str(own.pop("type", "") or "") or (
+        params = controller_params(full, request.manager, setup, request.param_files,
+                                   request.options)
+        # -t, else a type in NAME's section of the spawner's own files, else the
+        # controller manager's NAME.type
+        own = controller_params(full, request.manager, None, request.param_files,
+                                request.options)
+        type_name = request.type_name or str(own.get("type") or "") or (
             setup.types.get(name, "") if setup is not None else "")
         if not type_name:
             files = ", ".join(setup.files) if setup is not None else "none"
@@ -231,28 +187,10 @@ def controller_specs(node: NodeDescription, request: SpawnRequest,
                                f"{request.manager}'s section (in the runner's parameters "
                                f"files: {files}) has no '{name}.type'; add it there, as "
                                f"'{name}: {{type: PACKAGE/Class}}' under ros__parameters")
-        params: dict[str, Any] = setup.params_for(full) if setup is not None else {}
-        params.pop("type", None)
-        params.update(own)
-        params.update(request.ros_params)  # the node's own overrides win, as in ROS 2
         try:
-            module, class_name = resolve(type_name)
-            specs.append(_spec(name, namespace, module, class_name, params, request, node))
+            specs.append(controller_spec(
+                name, namespace, type_name, params, remaps=request.options.remaps,
+                autostart=not request.inactive, location=node.location))
         except ConfigurationError as exc:
             raise _error(node, f"controller {name!r}: {exc.message}") from None
     return specs
-
-
-def _spec(name: str, namespace: str, module: str, class_name: str, params: dict[str, Any],
-          request: SpawnRequest, node: NodeDescription) -> ComponentSpec:
-    # ROS 2 nests parameter names with '.', rtcf's tree with '/' (as load_controller does)
-    tree = {key.replace(".", "/"): value for key, value in params.items()}
-    full = expand(name, namespace)
-    return ComponentSpec(
-        name=name, module=module, class_name=class_name, namespace=namespace, params=tree,
-        remaps=list(request.remaps),
-        location=node.location, autostart=not request.inactive,
-        policy=FailurePolicy.from_params(tree, full),  # on_error, fallback
-        rate=Rate.from_params(tree, full),  # update_rate, as ros2_control's
-        lane=lane_from_params(tree, full),
-    )

@@ -15,9 +15,9 @@ from typing import Any
 
 import yaml
 
-from .._core._errors import LaunchError
-from ._controller_setup import params_key_matches
+from .._core._errors import ConfigurationError, LaunchError
 from ._description import NodeDescription
+from ._ros_parameters import params_key_matches, sections_of
 from ._xml_reading import Config, Element, Handler, Reader, Scope
 
 
@@ -73,18 +73,15 @@ class Ros2Tags:
         data = self._reader.parse_yaml(
             self._reader.read_text(path, element, scope), element, scope, file=path
         )
-        if not isinstance(data, dict):
-            raise LaunchError(
-                "a ROS 2 parameters file must map node names to {ros__parameters: {...}}",
-                file=path,
-            )
         node.params_files.append(path)
-        for key, entry in data.items():
-            if not params_key_matches(str(key), node.full_name):
-                continue
-            if not isinstance(entry, dict) or not isinstance(entry.get("ros__parameters"), dict):
-                raise LaunchError(f"entry {key!r} has no 'ros__parameters' mapping", file=path)
-            self._reader.set_tree(node.full_name, entry["ros__parameters"])
+        # the one reader of ros__parameters files (the controller manager's too)
+        try:
+            sections = sections_of(data, path)
+        except ConfigurationError as exc:
+            raise LaunchError(exc.message, file=path) from None
+        for key, tree in sections.items():
+            if params_key_matches(key, node.full_name):
+                self._reader.set_tree(node.full_name, tree)
 
     def _not_supported(self, element: Element, scope: Scope) -> None:
         raise self._reader.error(f"<{element.tag}> is not supported yet", element, scope)

@@ -264,7 +264,7 @@ class Ros2Bridge:
         self._runner = runner
         if settings.controller_manager and self._controller_manager is None:
             self._controller_manager = serve_controller_manager(
-                self.node, runner, settings.controller_manager)
+                self.node, runner, settings.controller_manager, self.executor)
 
         self._qos = QoSProfile(
             depth=settings.ros_qos_depth,

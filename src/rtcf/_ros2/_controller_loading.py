@@ -29,10 +29,12 @@ from __future__ import annotations
 
 from typing import Any
 
-from .._core._errors import RtcfError
+from .._core._errors import ConfigurationError, RtcfError
 from .._core._names import expand, namespace_of
+from .._launch._controller_specs import controller_params, controller_spec, node_options
 from .._launch._controller_types import controller_types, resolve
 from .._runtime._supervisor import WorkerRunner
+from ._controller_parameters import ManagerParameters
 
 BASE_CLASS = "controller_interface::ControllerInterface"
 
@@ -40,7 +42,8 @@ BASE_CLASS = "controller_interface::ControllerInterface"
 class ControllerLoading:
     """The four services of controller manager ``manager`` (its full name) on ``node``."""
 
-    def __init__(self, node: Any, runner: WorkerRunner, manager: str) -> None:
+    def __init__(self, node: Any, runner: WorkerRunner, manager: str, executor: Any = None
+                 ) -> None:
         from controller_manager_msgs.srv import (
             ConfigureController,
             ListControllerTypes,
@@ -52,6 +55,9 @@ class ControllerLoading:
         self._runner = runner
         self._log = node.get_logger()
         self._namespace = namespace_of(manager)
+        self._manager = manager
+        # <name>.type, .params_file, .node_options_args: set by the Jazzy spawner
+        self._parameters = ManagerParameters(node, manager, executor)
         self.services = [
             node.create_service(LoadController, f"{manager}/load_controller", self._load),
             node.create_service(
@@ -62,6 +68,7 @@ class ControllerLoading:
         ]
 
     def close(self) -> None:
+        self._parameters.close()
         for service in self.services:
             self._node.destroy_service(service)
         self.services.clear()
@@ -100,11 +107,19 @@ class ControllerLoading:
             return self._error(
                 f"A controller named '{name}' was already loaded inside the controller manager")
         setup = self._runner.controller_setup
-        type_name = setup.types.get(name) if setup is not None else None
+        full = expand(name, self._namespace)
+        try:  # what the spawner set on the manager, else the runner's files
+            given = self._parameters.controller(name)
+            options = node_options(given.node_options_args)
+            params = controller_params(full, self._manager, setup, given.params_files,
+                                       options)
+        except ConfigurationError as exc:
+            return self._error(f"Could not load controller '{name}': {exc}")
+        type_name = given.type_name or (setup.types.get(name, "") if setup is not None else "")
         if not type_name:
             return self._error(f"The 'type' param was not defined for '{name}'.")
         try:
-            module, class_name = resolve(type_name)
+            resolve(type_name)
         except RtcfError as exc:
             self._error(f"Loader for controller '{name}' (type '{type_name}') not found.")
             self._log.info(f"Available classes: {', '.join(controller_types())} ({exc})")
@@ -112,20 +127,15 @@ class ControllerLoading:
         queue = self._runner.requests
         if queue is None:
             return self._error(
-                f"Could not load controller '{name}': runner {self._runner.name} loads its "
-                "components from its launch file only (rtcf launch); start it as rt_runner "
-                "(ros2 launch, ros2 run rtcf rt_runner) to load controllers while it runs")
-        full = expand(name, self._namespace)
-        values: dict[str, Any] = {
-            "module": module, "class": class_name, "name": name,
-            "namespace": self._namespace, "autostart": False,
-        }
-        values.update({f"param.{k}": v for k, v in setup.params_for(full).items()})
+                f"Could not load controller '{name}': runner {self._runner.name} takes no "
+                "load requests")
         try:
-            self._runner.admits("loads", module, full, class_name)
+            spec = controller_spec(name, self._namespace, type_name, params,
+                                   remaps=options.remaps, autostart=False)
+            self._runner.admits("loads", spec.module, full, spec.class_name)
         except RtcfError as exc:
             return self._error(f"Could not load controller '{name}': {exc}")
-        done = queue.submit("load", values)
+        done = queue.submit("load", spec)
         if not done.ok:
             return self._error(f"Could not load controller '{name}': {done.reason}")
         return self._transition(name, "cleanup", "load")

@@ -46,12 +46,12 @@ NOTHING_TO_DO = (
 
 
 def serve_controller_manager(
-    node: Any, runner: WorkerRunner, name: str
+    node: Any, runner: WorkerRunner, name: str, executor: Any = None
 ) -> ControllerManager | None:
     """The services, where controller_manager_msgs imports (``bash scripts/setup-ros2``
     builds it; a ROS 2 installation has it); else none, said at debug level."""
     try:
-        return ControllerManager(node, runner, name)
+        return ControllerManager(node, runner, name, executor)
     except ImportError as exc:
         node.get_logger().debug(
             f"no {name}/list_controllers nor switch_controller: {exc} (controller_manager_msgs "
@@ -62,7 +62,8 @@ def serve_controller_manager(
 class ControllerManager:
     """The two services on ``node``, under ``name`` (relative to the node's namespace)."""
 
-    def __init__(self, node: Any, runner: WorkerRunner, name: str) -> None:
+    def __init__(self, node: Any, runner: WorkerRunner, name: str, executor: Any = None
+                 ) -> None:
         from controller_manager_msgs.msg import ControllerState
         from controller_manager_msgs.srv import ListControllers, SwitchController
 
@@ -78,7 +79,8 @@ class ControllerManager:
             node.create_service(SwitchController, f"{full}/switch_controller", self._switch),
         ]
         # load, configure, unload, list types: what a spawner needs besides these two
-        self._loading = ControllerLoading(node, runner, full)
+        # (and the manager's parameters that the spawner sets before it loads)
+        self._loading = ControllerLoading(node, runner, full, executor)
         self._hardware = HardwareServices(node, runner, full)  # its list_hardware_* ...
 
     def close(self) -> None:

@@ -39,6 +39,7 @@ from collections.abc import Callable, Iterator
 from types import FrameType
 from typing import Any
 
+from .._core._booleans import parse_bool
 from .._core._errors import RtcfError
 from .._core._executor import ABORT, STOP
 from .._core._faults import FailurePolicy
@@ -289,7 +290,8 @@ def runner_main(argv: list[str] | None = None) -> int:
     stop_asked = stop_on_signals(lambda: runner.request_stop(abort=True))
 
     def load(payload: Any) -> str:
-        spec, launcher = _spec(payload)
+        # a launcher's request (its fields), or a controller's spec (load_controller)
+        spec, launcher = (payload, "") if isinstance(payload, ComponentSpec) else _spec(payload)
         if spec.log_level is None:  # the launcher gave none: this runner's --log-level
             spec.log_level = args_log_level(ros_logger_name(spec.full_name))
         runner.load(spec, launcher=launcher)
@@ -333,13 +335,6 @@ def runner_main(argv: list[str] | None = None) -> int:
         runner.close()
         rclpy.try_shutdown(context=node.context)
     return status
-
-
-def _flag(value: Any) -> bool:
-    """A boolean parameter given as a bool or as text (launch XML's "false")."""
-    if isinstance(value, str):
-        return value.strip().lower() not in ("false", "0", "no")
-    return bool(value)
 
 
 def _value(v: Any) -> Any:
@@ -411,6 +406,11 @@ def launcher_main(argv: list[str] | None = None) -> int:
         _say(f"rt_launcher {me}", "error: give MODULE CLASS (or the rt_package/rt_type params)")
         return 2
     runner = str(params.get("runner") or "/rt_runner")
+    try:  # the one boolean parser (rtcf launch's too): an error names the parameter
+        autostart = parse_bool(params.get("autostart", True), f"{me}'s autostart")
+    except RtcfError as exc:
+        _say(f"rt_launcher {me}", f"error: {exc}")
+        return 2
     from rclpy.executors import MultiThreadedExecutor
 
     # two threads: a lifecycle service waits for the runner's answer, which the other takes
@@ -424,7 +424,7 @@ def launcher_main(argv: list[str] | None = None) -> int:
         "remaps": [f"{a}:={b}" for a, b in _ros_remaps(argv, node.get_name())] or [""],
         "is_first": is_first or bool(params.get("is_first", False)),
         "topics_ignore_for_graph": str(params.get("topics_ignore_for_graph") or ""),
-        "autostart": _flag(params.get("autostart", True)),
+        "autostart": autostart,
         "launcher": me,
     }
     if values["remaps"] == [""]:
