@@ -225,11 +225,15 @@ class InterfaceClaims:
     def _why(self, key: str, kind: str) -> str:
         """What rtcf knows about an unavailable interface, for the refusal."""
         resources = self.resources
+        owner = resources.references.owner(key)
+        if owner:
+            return f" (a reference interface of controller '{owner.lstrip('/')}', not active)"
         hardware = resources.hardware_of(key)
         if hardware and (key in resources.command_index or key in resources.state_index):
             state = resources.components[hardware].state
             return f" (hardware component '{hardware}' is {STATE_LABELS[state]})"
-        known = resources.command_keys if kind == "command" else resources.state_keys
+        known = ((*resources.command_keys, *resources.references.keys()) if kind == "command"
+                 else resources.state_keys)
         close = difflib.get_close_matches(key, known, n=1)
         hint = f"; did you mean '{close[0]}'?" if close else ""
         return f" (no hardware component exports it{hint})"
