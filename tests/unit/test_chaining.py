@@ -94,8 +94,9 @@ class Teleop(rtcf.Component):
         self.out.write(5.0)
 
 
-def runner() -> Runner:
-    return Runner(RunnerSettings(frequency=100.0, robot_description=URDF), clock=SimClock())
+def runner(**options: Any) -> Runner:
+    return Runner(RunnerSettings(frequency=100.0, robot_description=URDF), clock=SimClock(),
+                  **options)
 
 
 def velocity(r: Runner, wheel: str) -> float:
@@ -230,3 +231,15 @@ def test_bad_reference_keys_are_refused_at_configure(keys: list[str]) -> None:
 
     with pytest.raises(rtcf.RtcfError, match="reference interfaces"):
         runner().load(ComponentSpec("bad", cls=Bad))
+
+
+def test_the_chain_is_torn_down_without_a_word() -> None:
+    got: list[str] = []
+    r = runner(log_sink=lambda rec: got.append(rec.format()))
+    for name, wheel in (("wheel_left", WHEELS[0]), ("wheel_right", WHEELS[1])):
+        r.load(ComponentSpec(name, cls=Wheel, params={"wheel": wheel}))
+    r.load(ComponentSpec("z_base", cls=Base))
+    r.run(2)
+    r.shutdown()
+    r.drain_logs()
+    assert not [text for text in got if "claims" in text or "rror" in text], got

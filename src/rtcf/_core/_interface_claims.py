@@ -114,6 +114,8 @@ class InterfaceClaims:
         start = [key for controller, keys in activate.items() if controller not in deactivate
                  for key in keys if self._holder.get(key) != controller]
         stop = [key for controller in deactivate for key in self._by_controller.get(controller, ())]
+        hardware = self.resources.command_index  # (controllers' references: no mode switch)
+        start, stop = [k for k in start if k in hardware], [k for k in stop if k in hardware]
         problem = self._prepare(start, stop)
         if problem:
             raise ClaimError("Could not switch controllers since prepare command mode switch "
