@@ -5,6 +5,7 @@ from ._core._action_protocol import ActionRequest as ActionRequest
 from ._core._action_protocol import GoalStatus as GoalStatus
 from ._core._actions import ActionServer as ActionServer
 from ._core._cdr import Serialized as Serialized
+from ._core._chaining import ChainableComponent as ChainableComponent
 from ._core._clock import Clock as Clock
 from ._core._clock import MonotonicClock as MonotonicClock
 from ._core._clock import SimClock as SimClock

@@ -1,10 +1,13 @@
-"""pid_controller's ``~/reference`` messages: checked, then taken into the controller's
-references (kept apart from the controller, which runs the loop on them)."""
+"""pid_controller's ``~/reference`` and ``~/measured_state`` messages and its states:
+checked, then taken into the controller's references or measured state (kept apart from
+the controller, which runs the loop on them)."""
 
 from __future__ import annotations
 
 import math
 from typing import Any
+
+import numpy as np
 
 _isnan = math.isnan
 
@@ -53,3 +56,37 @@ def take_reference(c: Any, msg: Any) -> None:
             c.reference[i] = value
             if two and not _isnan(dots[k]):
                 c.reference_dot[i] = dots[k]
+
+
+def refuse_state(c: Any, name: str, topic: str, values: Any, finite: Any) -> None:
+    """A state with a value that is not finite: ignored, the last ones stay."""
+    c.refused_messages[name] += 1
+    i = int(np.argmin(finite))
+    c.not_finite[name].error(
+        "%s ignored: the value of %s is %r (not finite); the last ones stay",
+        topic, c.state_dofs[i], float(values[i]))
+
+
+def take_measured(c: Any, msg: Any) -> None:
+    """A ``~/measured_state`` message into ``c``'s measured state, or refused."""
+    names, values, dots = msg.dof_names, msg.values, msg.values_dot
+    n = len(c.dofs)
+    problem = None
+    if len(names) != n or len(values) != n:
+        problem = f"{len(names)} names and {len(values)} values"
+    elif dots and not c.two:
+        problem = "values_dot, which needs two reference_and_state_interfaces"
+    elif dots and len(dots) != n:
+        problem = f"{len(dots)} values_dot"
+    if problem is not None:
+        c.refused_messages["~/measured_state"] += 1
+        c.refused.error("%s refused: %s for %d dofs (%s)", c.measured_port.topic, problem, n,
+                        ", ".join(c.state_dofs))
+        return
+    for numbers in (values, dots):
+        finite = np.isfinite(np.asarray(numbers, dtype=float))  # a message: rare
+        if not finite.all():
+            refuse_state(c, "~/measured_state", c.measured_port.topic, numbers, finite)
+            return
+    c.measured = list(values)
+    c.measured_dot = list(dots) if dots else [math.nan] * n

@@ -48,7 +48,7 @@ def _import_messages(enable_odom_tf: bool) -> tuple[Any, Any, Any, Any]:
     return TwistStamped, OdometryMessage, TransformStamped, tf_message
 
 
-class DiffDriveController(rtcf.Component):
+class DiffDriveController(rtcf.ChainableComponent):
     """diff_drive_controller/DiffDriveController: a base's twist to its wheels' speeds,
     and odometry back.
 
@@ -60,6 +60,10 @@ class DiffDriveController(rtcf.Component):
     (nav_msgs/Odometry) and ``/tf`` (tf2_msgs/TFMessage, ``enable_odom_tf``) out at
     ``publish_rate``; ``~/cmd_vel_out`` (the limited command,
     ``publish_limited_velocity``).
+
+    Chainable as in Jazzy: its reference interfaces ``<name>/linear/velocity`` and
+    ``<name>/angular/velocity``; chained, a preceding controller writes them and
+    ``~/cmd_vel`` (and its timeout) is not read.
 
     A ``~/cmd_vel`` whose ``linear.x`` or ``angular.z`` (the fields it uses) is not
     finite is ignored: counted in ``refused_messages``, logged at most once a second,
@@ -112,6 +116,8 @@ class DiffDriveController(rtcf.Component):
                                            (odometry, transform, tf_message))
 
         self.cmd_vel = self.add_input("~cmd_vel", twist)
+        # Jazzy's reference interfaces: what the wheels follow (linear, angular)
+        self.references = self.add_reference_interfaces(["linear/velocity", "angular/velocity"])
         wheels = [*self.left_names, *self.right_names]  # ros2_control's <wheel>/<interface>
         self.velocity_command = self.add_command_interfaces(
             "velocity_command", [f"{wheel}/velocity" for wheel in wheels])
@@ -139,7 +145,7 @@ class DiffDriveController(rtcf.Component):
         commands before it zero, as ros2_controllers' reset_buffers."""
         self.command_linear = self.command_angular = math.nan
         self.command_stamp_ns = -1  # set to the first update's time
-        self.reference_linear = self.reference_angular = math.nan
+        self.references[:] = math.nan
         self.last = [0.0, 0.0]  # linear, angular of the last command
         self.before_last = [0.0, 0.0]
         self.publisher.reset()  # the first update publishes
@@ -165,9 +171,10 @@ class DiffDriveController(rtcf.Component):
         now = self.stamp_ns
         if self.command_stamp_ns < 0:
             self.command_stamp_ns = now
-        self._receive(now)
-        self._update_reference(now)
-        linear, angular = self.reference_linear, self.reference_angular
+        if not self.in_chained_mode:  # ros2_controllers' update_reference_from_subscribers
+            self._receive(now)
+            self._update_reference(now)
+        linear, angular = float(self.references[0]), float(self.references[1])
         if not (math.isfinite(linear) and math.isfinite(angular)):
             return  # no command yet: the wheels keep what the hardware had
         dt = self.period
@@ -231,11 +238,11 @@ class DiffDriveController(rtcf.Component):
         """What the wheels follow: the command, or zero once it is older than
         cmd_vel_timeout (braking); before the first command, nothing (NaN)."""
         if self.timeout_ns and now - self.command_stamp_ns > self.timeout_ns:
-            self.reference_linear = self.reference_angular = 0.0
+            self.references[:] = 0.0
             self._throttled("timeout", now, "velocity command timed out: braking")
         elif math.isfinite(self.command_linear):  # finite both, or NaN both (none yet)
-            self.reference_linear = self.command_linear
-            self.reference_angular = self.command_angular
+            self.references[0] = self.command_linear
+            self.references[1] = self.command_angular
 
     def _update_odometry(self, time: float, dt: float) -> bool:
         assert self.feedback is not None

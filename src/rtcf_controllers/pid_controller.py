@@ -10,7 +10,6 @@ arrays, one value per dof (docs/controllers.md).
 from __future__ import annotations
 
 import math
-from typing import Any
 
 import numpy as np
 
@@ -20,7 +19,7 @@ from ._layouts import run_from
 from ._message_types import message_class
 from ._params import ControllerParameters
 from ._pid import Gains, Pid, shortest_angular_distance
-from ._pid_references import take_reference
+from ._pid_references import refuse_state, take_measured, take_reference
 from ._throttle import Throttled
 
 _isfinite = math.isfinite
@@ -28,18 +27,20 @@ _isnan = math.isnan
 _NAN = math.nan
 
 
-class PidController(rtcf.Component):
+class PidController(rtcf.ChainableComponent):
     """Regulates each dof's state (the input named by the first of
     ``reference_and_state_interfaces``, e.g. ``position``; the second, e.g. ``velocity``,
     is its derivative) to the reference and writes ``<command_interface>_command``.
 
     The reference comes from ``~/reference`` (``control_msgs/MultiDOFCommand``: values
     by ``dof_names`` or, without names, in their order; NaN leaves a dof's reference as
-    it is) and stays until the next one; with ``set_current_state_as_first_setpoint``
-    each dof starts referenced where it is when first measured after the controller
-    starts. A dof is commanded while its reference and state are finite; its command
-    is the PID's output plus, with ``enable_feedforward``, ``feedforward_gain`` times
-    the reference's derivative (two interfaces) or the reference (one).
+    it is) and stays until the next one; chained, from the reference interfaces
+    ``<name>/<dof>/<interface>`` that a preceding controller writes (Jazzy's); with
+    ``set_current_state_as_first_setpoint`` each dof starts referenced where it is when
+    first measured after the controller starts. A dof is commanded while its reference
+    and state are finite; its command is the PID's output plus, with
+    ``enable_feedforward``, ``feedforward_gain`` times the reference's derivative (two
+    interfaces) or the reference (one).
     ``~/controller_state`` (``control_msgs/MultiDOFStateStamped``) publishes, every
     time it runs, each dof's reference, feedback, error, time step and output.
     With ``use_external_measured_states``, the state comes from ``~/measured_state``
@@ -86,6 +87,11 @@ class PidController(rtcf.Component):
             self, "control_msgs.msg", "MultiDOFStateStamped", dof_states=[single()]
         )
         self.reference_port = self.add_input("~/reference", command_msg)
+        # Jazzy's reference interfaces: per interface, per dof; the references live there
+        self.references = self.add_reference_interfaces(
+            [f"{dof}/{name}" for name in interfaces for dof in state_dofs])
+        self.reference = self.references[:n]
+        self.reference_dot = self.references[n:] if self.two else np.full(n, _NAN)
         self.measured_port = (
             self.add_input("~/measured_state", command_msg) if external else None
         )
@@ -127,8 +133,8 @@ class PidController(rtcf.Component):
 
     def _clear(self) -> None:
         n = len(self.dofs)
-        self.reference = [_NAN] * n
-        self.reference_dot = [_NAN] * n
+        self.references[:] = _NAN  # (reference and reference_dot are views)
+        self.reference_dot[:] = _NAN
         self.measured = [_NAN] * n
         self.measured_dot = [_NAN] * n
         self.seeding = self.first_setpoint
@@ -143,7 +149,7 @@ class PidController(rtcf.Component):
 
     def update(self) -> None:
         self._measure()
-        if self.reference_port.has_new_data:
+        if not self.in_chained_mode and self.reference_port.has_new_data:
             take_reference(self, self.reference_port.read())
         if self.seeding:
             self._seed()
@@ -154,7 +160,7 @@ class PidController(rtcf.Component):
         port = self.measured_port
         if port is not None:
             if port.has_new_data:
-                self._take_measured(port.read())
+                take_measured(self, port.read())
             return
         n = len(self.dofs)
         for k, port in enumerate(self.state_ports):
@@ -170,7 +176,7 @@ class PidController(rtcf.Component):
             finite = self.finite[k]
             np.isfinite(values, out=finite)
             if not finite.all():
-                self._refuse_state(port.name, port.topic, values, finite)
+                refuse_state(self, port.name, port.topic, values, finite)
                 continue
             if k:
                 self.measured_dot = values.tolist()
@@ -190,7 +196,8 @@ class PidController(rtcf.Component):
         self.seeding = False
 
     def _control(self, dt: float) -> None:
-        reference, reference_dot = self.reference, self.reference_dot
+        # Python floats (a numpy scalar's overflow warns): the reference interfaces' values
+        reference, reference_dot = self.reference.tolist(), self.reference_dot.tolist()
         measured, measured_dot = self.measured, self.measured_dot
         command, two, feedforward = self.command, self.two, self.feedforward
         written = False
@@ -233,7 +240,7 @@ class PidController(rtcf.Component):
         feedback[:] = self.measured
         np.subtract(reference, feedback, out=error)
         for i in self.wrapped:
-            error[i] = shortest_angular_distance(self.measured[i], self.reference[i])
+            error[i] = shortest_angular_distance(self.measured[i], float(self.reference[i]))
         if self.two:
             feedback_dot[:] = self.measured_dot
             error_dot[:] = self.reference_dot
@@ -245,36 +252,3 @@ class PidController(rtcf.Component):
         state = self.state
         state.stamp_ns = self.stamp_ns
         self.controller_state.write(state)
-
-    def _refuse_state(self, name: str, topic: str, values: Any, finite: Any) -> None:
-        """A state with a value that is not finite: ignored, the last ones stay."""
-        self.refused_messages[name] += 1
-        i = int(np.argmin(finite))
-        self.not_finite[name].error(
-            "%s ignored: the value of %s is %r (not finite); the last ones stay",
-            topic, self.state_dofs[i], float(values[i]))
-
-    def _take_measured(self, msg: Any) -> None:
-        names, values, dots = msg.dof_names, msg.values, msg.values_dot
-        n = len(self.dofs)
-        problem = None
-        if len(names) != n or len(values) != n:
-            problem = f"{len(names)} names and {len(values)} values"
-        elif dots and not self.two:
-            problem = "values_dot, which needs two reference_and_state_interfaces"
-        elif dots and len(dots) != n:
-            problem = f"{len(dots)} values_dot"
-        if problem is not None:
-            self.refused_messages["~/measured_state"] += 1
-            self.refused.error(
-                "%s refused: %s for %d dofs (%s)", self.measured_port.topic, problem, n,  # type: ignore[union-attr]
-                ", ".join(self.state_dofs))
-            return
-        for numbers in (values, dots):
-            finite = np.isfinite(np.asarray(numbers, dtype=float))  # a message: rare
-            if not finite.all():
-                self._refuse_state("~/measured_state", self.measured_port.topic,  # type: ignore[union-attr]
-                                   numbers, finite)
-                return
-        self.measured = list(values)
-        self.measured_dot = list(dots) if dots else [_NAN] * n

@@ -16,6 +16,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from ._actions import ActionServer
+from ._chaining import ChainableComponent, reference_ports, references_of
 from ._claims import claimed_topics
 from ._component import Component, _attach, overrides
 from ._errors import ComponentError, ConfigurationError, Location, RtcfError
@@ -240,6 +241,9 @@ class Components:
             "claims": claimed_topics(comp),  # its claimed command topics
             # its ports of hardware interfaces: (command keys, state keys)
             "interfaces": required_interfaces(comp),
+            # a chainable controller's reference interfaces, as list_controllers names them
+            "chainable": isinstance(comp, ChainableComponent),
+            "references": list(refs.keys) if (refs := references_of(comp)) else [],
         }
 
     def connections(self, maps: Callable[[str], bool]) -> list[dict[str, Any]]:
@@ -310,6 +314,9 @@ class Components:
         for fb, primary in fallbacks.items():
             comp = self.entries[fb].component
             extra[primary] = [_info(primary, p) for p in comp._rtcf_inputs.values()]
+        # chained controllers: a reference key is an edge from its claimant to its owner
+        refs_in, refs_out = reference_ports(
+            {n: e.component for n, e in self.entries.items() if n not in fallbacks})
         nodes = []
         for full, entry in self.entries.items():
             if full in fallbacks:
@@ -319,11 +326,11 @@ class Components:
                 GraphNode(
                     name=full,
                     inputs=[_info(full, p) for p in comp._rtcf_inputs.values()]
-                    + extra.get(full, []),
+                    + extra.get(full, []) + refs_in.get(full, []),
                     outputs=[
                         _info(full, p, p.name in comp._rtcf_claims)
                         for p in comp._rtcf_outputs.values()
-                    ],
+                    ] + refs_out.get(full, []),
                     is_first=entry.spec.is_first,
                     ignore_pattern=entry.ignore,
                     label=type(comp).__name__,

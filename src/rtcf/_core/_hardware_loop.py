@@ -28,11 +28,12 @@ releases them. The hardware is shut down with the runner.
 from __future__ import annotations
 
 import os
-from collections.abc import Callable, Iterable, Sequence
+from collections.abc import Callable, Iterable, Mapping, Sequence
 from typing import Any, cast
 
 import numpy as np
 
+from ._chaining import references_of
 from ._command_limits import CommandGuard, Counters, JointLimits
 from ._errors import ConfigurationError
 from ._hardware import ReturnType
@@ -132,14 +133,15 @@ class _Gather:
 
 
 class _Scatter:
-    """After an update: the command it wrote (checked) into the commands."""
+    """After an update: the command it wrote (checked) into the commands, and into the
+    reference interfaces of chained controllers (each target: an array, the places there,
+    and where those values are in the command, None: all of it, in order)."""
 
-    __slots__ = ("_commands", "_idx", "_seen", "_slot", "guard", "infinite")
+    __slots__ = ("_seen", "_slot", "_targets", "guard", "infinite")
 
-    def __init__(self, commands: np.ndarray, idx: np.ndarray, port: Any,
+    def __init__(self, targets: Sequence[tuple[np.ndarray, np.ndarray, Any, Any]], port: Any,
                  guard: CommandGuard) -> None:
-        self._commands = commands
-        self._idx = idx
+        self._targets = tuple(targets)
         self._slot = port._slot
         self._seen = self._slot.seq
         self.guard = guard
@@ -155,7 +157,12 @@ class _Scatter:
         guard()
         value = slot.value  # checked: the command, clamped, or the one held (None: none)
         if value is not None:
-            np.put(self._commands, self._idx, value)
+            for target, idx, places, sub in self._targets:
+                if places is None:
+                    np.put(target, idx, value)
+                else:
+                    np.take(value, places, out=sub)
+                    np.put(target, idx, sub)
         if guard.infinite != self.infinite:
             self.infinite = guard.infinite
             return True
@@ -208,6 +215,10 @@ class HardwareLoop:
         self._claimed: dict[str, tuple[str, ...]] = {}  # active controller -> its keys
         self._pending: list[str] = []  # hardware that failed in the last read or write
         self.deactivate: Callable[[str], object] | None = None  # a controller, by name
+        # the loaded components by full name, and what changes a chainable controller's
+        # chained mode (restarting it if it is active)
+        self.components: Callable[[], Mapping[str, Any]] | None = None
+        self.chain_mode: Callable[[str, bool], None] | None = None
         # told of each hardware's change of state (a worker tells its supervisor)
         self.announce: Callable[[str, TransitionOutcome], None] | None = None
         self._period = 1.0 / state.frequency
@@ -263,7 +274,10 @@ class HardwareLoop:
         if not self._pending:
             return
         failed, self._pending = set(self._pending), []
-        for controller in self.users_of(failed):
+        users = self.users_of(failed)
+        for controller in users:  # and the controllers that precede them, deactivated first
+            users += [p for p in self.preceding(controller) if p not in users]
+        for controller in reversed(users):
             if self.deactivate is not None:
                 self.deactivate(controller)
 
@@ -286,11 +300,11 @@ class HardwareLoop:
                 continue
             keys = ports.keys
             if ports.kind == COMMAND:
-                if not all(k in rm.command_index for k in keys):
+                if not all(rm.command_interface_exists(k) for k in keys):
                     continue  # its activation is refused (the keys are named there)
                 guard = self._guard(component, port, keys)
                 guard.prepare(component.period, counters)
-                scatters.append(_Scatter(rm.commands, rm.command_indices(keys), port, guard))
+                scatters.append(_Scatter(self._targets(keys), port, guard))
                 continue
             present = [i for i, k in enumerate(keys) if k in rm.state_index]
             if len(present) != len([k for k in keys if k]):
@@ -302,6 +316,27 @@ class HardwareLoop:
         if not gathers and not scatters:
             return step
         return Bound(component.full_name, step, gathers, scatters)
+
+    def _targets(self, keys: Sequence[str]) -> list[tuple[np.ndarray, np.ndarray, Any, Any]]:
+        """Where a command port's values go: the hardware's commands, and each chained
+        controller's references (array, places, the values' places in the command or
+        None for all of them in order, a buffer for those values)."""
+        rm = self.rm
+        groups: dict[int, tuple[np.ndarray, list[int], list[int]]] = {}
+        for i, key in enumerate(keys):
+            ref = rm.references.get(key)
+            target, at = (rm.commands, rm.command_index[key]) if ref is None else (
+                ref.values, ref.place)
+            group = groups.setdefault(id(target), (target, [], []))
+            group[1].append(at)
+            group[2].append(i)
+        targets = []
+        for target, places, where in groups.values():
+            whole = where == list(range(len(keys)))
+            targets.append((target, np.array(places, dtype=np.intp),
+                            None if whole else np.array(where, dtype=np.intp),
+                            None if whole else np.empty(len(where))))
+        return targets
 
     def _writer(self, component: Any, port: Any) -> Any:
         """The stand-in output a bound input is connected to (kept: its slot stays)."""
@@ -327,20 +362,31 @@ class HardwareLoop:
 
     # ------------------------------------------------------------- claims
 
-    def claim(self, name: str, component: Any) -> str:
+    def claim(self, name: str, component: Any, reconcile: bool = True) -> str:
         """Claim ``component``'s command keys for its activation: "" if done, else why
-        not (ros2_control's words, one line)."""
-        if not component._rtcf_bound:
-            return ""
-        commands, states = required_interfaces(component)
-        try:
-            self.rm.claims.claim(controller_name(name), commands, states)
-        except ClaimError as exc:
-            return str(exc)
-        self._claimed[name] = (*commands, *states)
-        for key, guard in self.guards.items():
-            if key[0] == name:
-                guard.reset()
+        not (ros2_control's words, one line). A chainable controller's references become
+        available; the controllers whose references it claims go to chained mode (unless
+        not ``reconcile``: a group's start sets the modes before and checks them after)."""
+        self.sync_references()
+        if component._rtcf_bound:
+            commands, states = required_interfaces(component)
+            refs = self.rm.references
+            for wanted in commands:  # ros2_control's check of the following controllers
+                owner = refs.owner(wanted)
+                if owner and owner != name and not refs.is_available(wanted):
+                    return (f"The following controller with name '{controller_name(owner)}' "
+                            "is currently inactive and it is not requested to be activated.")
+            try:
+                self.rm.claims.claim(controller_name(name), commands, states)
+            except ClaimError as exc:
+                return str(exc)
+            self._claimed[name] = (*commands, *states)
+            for key, guard in self.guards.items():
+                if key[0] == name:
+                    guard.reset()
+        self.rm.references.set_available(name, True)
+        if reconcile:
+            self.reconcile()
         return ""
 
     def preflight(self, controllers: Iterable[tuple[str, Any, bool]]) -> list[str]:
@@ -370,12 +416,66 @@ class HardwareLoop:
         return problems
 
     def release(self, name: str) -> None:
-        """``name`` is no longer active: its claims go."""
+        """``name`` is no longer active: its claims go, its references are unavailable,
+        and those it claimed leave chained mode if no one else claims them."""
         if self._claimed.pop(name, None) is not None:
             try:
                 self.rm.claims.release(controller_name(name))
             except ClaimError as exc:
                 self.log.error("releasing the claims of '%s': %s", name, exc)
+        self.rm.references.set_available(name, False)
+        self.reconcile()
+
+    # ------------------------------------------------------------- chained controllers
+
+    def sync_references(self) -> None:
+        """The loaded chainable controllers' reference interfaces, imported into the
+        resource manager's key space (before a claim and when the schedule compiles)."""
+        components = self.components() if self.components is not None else {}
+        refs = self.rm.references
+        for gone in set(refs.controllers()) - set(components):
+            refs.remove_controller(gone)
+        for name, component in components.items():
+            exported = references_of(component)
+            if exported is None:
+                continue
+            problem = refs.import_controller(name, exported.full_keys, exported.values)
+            if problem:
+                self.log.error("controller '%s': its reference interfaces are not exported: %s",
+                               controller_name(name), problem)
+
+    def preceding(self, name: str) -> list[str]:
+        """The active controllers that claim ``name``'s references (full names)."""
+        mine = set(self.rm.references.keys_of(name))
+        return [c for c, keys in self._claimed.items() if c != name and mine.intersection(keys)]
+
+    def chained(self, name: str) -> bool:
+        """Whether an active controller claims ``name``'s references (ros2_control's
+        ``is_in_chained_mode`` of an active controller)."""
+        return bool(self.preceding(name))
+
+    def reconcile(self) -> None:
+        """Every chainable controller in chained mode exactly while an active controller
+        claims its references (``chain_mode`` restarts one that is active)."""
+        components = self.components() if self.components is not None else {}
+        for name in self.rm.references.controllers():
+            component = components.get(name)
+            should = self.chained(name)
+            if component is not None and component._rtcf_chained != should:
+                if self.chain_mode is not None:
+                    self.chain_mode(name, should)
+                else:
+                    component._rtcf_chained = should
+
+    def deactivation_conflict(self, name: str) -> str:
+        """Why ``name`` may not leave active ("" if it may): a preceding controller that
+        claims its references is active (ros2_control's words)."""
+        before = self.preceding(name)
+        if not before:
+            return ""
+        return (f"Unable to deactivate controller with name '{controller_name(name)}' because "
+                f"preceding controller with name '{controller_name(before[0])}' is currently "
+                "active and will not be deactivated.")
 
     def claimed_interfaces(self, name: str) -> list[str]:
         return list(self.rm.claims.claimed_interfaces(controller_name(name)))

@@ -18,6 +18,7 @@ import difflib
 from collections.abc import Iterable, Mapping, Sequence
 from typing import Any, Protocol
 
+from ._controller_references import ControllerReferences
 from ._errors import RtcfError
 from ._hardware import ReturnType, return_result
 from ._lifecycle import ACTIVE, INACTIVE, STATE_LABELS
@@ -40,6 +41,11 @@ class Resources(Protocol):
 
     @property
     def components(self) -> Mapping[str, Any]: ...
+
+    @property
+    def references(self) -> ControllerReferences:
+        """The chainable controllers' reference interfaces."""
+        ...
 
     def command_interface_exists(self, key: str) -> bool: ...
 
@@ -144,6 +150,8 @@ class InterfaceClaims:
         start = [key for controller, keys in activate.items() if controller not in deactivate
                  for key in keys if self._holder.get(key) != controller]
         stop = [key for controller in deactivate for key in self._by_controller.get(controller, ())]
+        hardware = self.resources.command_index  # (controllers' references: no mode switch)
+        start, stop = [k for k in start if k in hardware], [k for k in stop if k in hardware]
         problem = self._prepare(start, stop)
         if problem:
             raise ClaimError("Could not switch controllers since prepare command mode switch "
@@ -254,11 +262,15 @@ class InterfaceClaims:
     def _why(self, key: str, kind: str) -> str:
         """What rtcf knows about an unavailable interface, for the refusal."""
         resources = self.resources
+        owner = resources.references.owner(key)
+        if owner:
+            return f" (a reference interface of controller '{owner.lstrip('/')}', not active)"
         hardware = resources.hardware_of(key)
         if hardware and (key in resources.command_index or key in resources.state_index):
             state = resources.components[hardware].state
             return f" (hardware component '{hardware}' is {STATE_LABELS[state]})"
-        known = resources.command_keys if kind == "command" else resources.state_keys
+        known = ((*resources.command_keys, *resources.references.keys()) if kind == "command"
+                 else resources.state_keys)
         close = difflib.get_close_matches(key, known, n=1)
         hint = f"; did you mean '{close[0]}'?" if close else ""
         return f" (no hardware component exports it{hint})"

@@ -23,7 +23,8 @@ its ``<plugin>`` (:mod:`._hardware_plugins`), runs ``on_init``, and from then on
   controller manager to deactivate the controllers that use them
   (:meth:`InterfaceClaims.controllers_using`);
 * claims command interfaces per ``joint/interface`` key for controllers
-  (:class:`._interface_claims.InterfaceClaims`, :attr:`claims`);
+  (:class:`._interface_claims.InterfaceClaims`, :attr:`claims`), chainable controllers'
+  reference interfaces among them (:attr:`references`);
 * answers ``list_hardware_components`` and ``list_hardware_interfaces`` with the
   fields of controller_manager_msgs.
 """
@@ -37,6 +38,7 @@ from typing import Any, NamedTuple
 
 import numpy as np
 
+from ._controller_references import ControllerReferences
 from ._errors import ConfigurationError
 from ._hardware import HardwareComponentInterface, LifecycleState, ReturnType
 from ._hardware_component import HardwareComponent
@@ -147,6 +149,8 @@ class ResourceManager:
         self._writers = tuple(c for c in ordered if not c.is_sensor)
         self.read_status = ReadWriteStatus()
         self.write_status = ReadWriteStatus()
+        # chainable controllers' reference interfaces: command keys of controllers
+        self.references = ControllerReferences()
         self.claims = InterfaceClaims(
             self, allow_controller_activation_with_inactive_hardware, self.logger)
 
@@ -424,13 +428,14 @@ class ResourceManager:
         return key in self.state_index
 
     def command_interface_exists(self, key: str) -> bool:
-        return key in self.command_index
+        """A hardware's command interface, or a controller's reference interface."""
+        return key in self.command_index or key in self.references
 
     def state_interface_is_available(self, key: str) -> bool:
         return key in self.available_states
 
     def command_interface_is_available(self, key: str) -> bool:
-        return key in self.available_commands
+        return key in self.available_commands or self.references.is_available(key)
 
     def state_indices(self, keys: Iterable[str]) -> np.ndarray:
         """Positions of state interfaces ``keys`` in :attr:`states` (an intp array)."""

@@ -137,6 +137,8 @@ class Runner:
             self.hardware.deactivate = lambda n: self._transitions.change(n, "deactivate")
             self._loop.hardware_feeder = self.hardware.feeder
             self.hardware.announce = self._transitions.announce
+            self.hardware.components = lambda: self.components  # chained controllers
+            self.hardware.chain_mode = self._transitions.set_chained
 
     # -- what is loaded, and how it is wired (Components) ---------------------------
     @property

@@ -201,6 +201,7 @@ class Schedule:
         self._visible = {}
         hardware = self.hardware
         if hardware is not None:  # ros2_control's order: read, the controllers, write
+            hardware.sync_references()  # chained controllers' references, to bind to
             add(READ_LABEL, hardware.read, (1, 0), True)
         if self.lane is None:  # every lane here, one after the other: the reference
             local = self._local_let(let, members)

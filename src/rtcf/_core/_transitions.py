@@ -11,8 +11,10 @@ component's name and told to the listeners (a worker tells its supervisor).
 from __future__ import annotations
 
 from collections.abc import Callable, Iterable, Sequence
+from typing import Any
 
 from ._actions import abort_open
+from ._chaining import chain_links, chained_first
 from ._claims import activation_conflict, start_conflict
 from ._components import Components, Loaded
 from ._errors import ComponentError, ConfigurationError
@@ -89,6 +91,8 @@ class Transitions:
         conflict = activation_conflict(loaded, full) if tid == ACTIVATE else ""
         if not conflict and tid == ACTIVATE and self.hardware is not None:
             conflict = self.hardware.claim(full, entry.component)  # its interfaces' keys
+        if not conflict and tid is not None and entry.state == ACTIVE and self.hardware:
+            conflict = self.hardware.deactivation_conflict(full)  # chained: preceded
         if conflict:  # its claimed command topic is another active component's
             outcome = refused(entry.state, conflict)
         elif tid is None:
@@ -137,9 +141,14 @@ class Transitions:
             raise ConfigurationError(
                 conflict, file=where.file if where else None, line=where.line if where else None
             )
+        if self.hardware is not None:  # chained controllers first, in chained mode
+            starting = chained_first(starting, {n: loaded[n].component for n in starting})
+            for chained in {link[2] for link in chain_links(
+                    {n: loaded[n].component for n in starting})}:
+                self.set_chained(chained, True)
         for name in starting:
             entry = loaded[name]
-            problem = self.hardware.claim(name, entry.component) if self.hardware else ""
+            problem = self.hardware.claim(name, entry.component, False) if self.hardware else ""
             if problem:  # as a spawner's activation fails: it stays inactive, the rest run
                 self._notices.log(LogLevel.ERROR, name, "lifecycle: activate refused: " + problem)
                 continue
@@ -158,9 +167,39 @@ class Transitions:
             entry.state = ACTIVE
             started = True
             self.announce(name, TransitionOutcome(ACTIVATE, INACTIVE, ACTIVE, SUCCESS))
+        if self.hardware is not None:
+            self.hardware.reconcile()  # (a preceding one refused: the chained one leaves)
         if started:
             self._replan()
         self._notices.drain()
+
+    def set_chained(self, name: str, chained: bool) -> None:
+        """A chainable controller into or out of chained mode; an active one is restarted
+        (``stop``, the mode, ``start``) as ros2_control restarts it."""
+        entry = self._components.entries.get(name)
+        component: Any = entry.component if entry is not None else None
+        if entry is None or component._rtcf_chained == chained:
+            return
+        active = entry.state == ACTIVE
+        running, self._state.running = self._state.running, False  # hooks: nonrt is fine
+        try:
+            problems = [self._hook(entry, "stop")[1]] if active else []
+            try:
+                refused_ = component.on_set_chained_mode(chained) is False
+            except Exception as exc:
+                refused_, problems = True, [*problems, f"on_set_chained_mode raised {exc!r}"]
+            if not refused_:
+                component._rtcf_chained = chained
+            if active:
+                problems.append(self._hook(entry, "start")[1])
+        finally:
+            self._state.running = running
+        said = "; ".join(p for p in problems if p)
+        self._notices.log(
+            LogLevel.ERROR if said or refused_ else LogLevel.INFO, name,
+            f"chained mode {'on' if chained else 'off'}"
+            f"{' refused' if refused_ else ''}{' (restarted)' if active else ''}"
+            f"{': ' + said if said else ''}")
 
     def teardown(self, entries: Iterable[Loaded]) -> list[ComponentError]:
         """Stop and clean up components taken out (unloaded, or shut down), in the order

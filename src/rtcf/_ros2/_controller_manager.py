@@ -38,6 +38,7 @@ from .._core._errors import RtcfError
 from .._core._lane_names import MAIN_LANE
 from .._core._names import expand, namespace_of
 from .._runtime._supervisor import WorkerRunner
+from ._controller_chains import fill, switch_order
 from ._controller_loading import ControllerLoading
 from ._hardware_services import HardwareServices
 
@@ -64,12 +65,13 @@ class ControllerManager:
 
     def __init__(self, node: Any, runner: WorkerRunner, name: str, executor: Any = None
                  ) -> None:
-        from controller_manager_msgs.msg import ControllerState
+        from controller_manager_msgs.msg import ChainConnection, ControllerState
         from controller_manager_msgs.srv import ListControllers, SwitchController
 
         self._node = node
         self._runner = runner
         self._state_msg = ControllerState
+        self._connection = ChainConnection
         self._strict = SwitchController.Request.STRICT
         full = expand(name, node.get_namespace())
         self.name = full
@@ -102,7 +104,8 @@ class ControllerManager:
     # -- list_controllers ---------------------------------------------------------------
     def _list(self, request: Any, response: Any) -> Any:
         frequency = self._runner.settings.frequency
-        for info in self._runner.introspect().get("components", []):
+        infos = self._by_name()
+        for info in infos.values():
             every = int(info.get("every", 1)) or 1
             state = self._state_msg()
             state.name = self._short(str(info["name"]))
@@ -118,8 +121,13 @@ class ControllerManager:
                 hardware = getattr(self._runner, "hardware", None)
                 state.claimed_interfaces = [str(t) for t in (
                     commands if hardware else info.get("claims", []))]
+            fill(state, state.name, infos, self._connection)  # chained controllers
             response.controller.append(state)
         return response
+
+    def _by_name(self) -> dict[str, Any]:
+        return {self._short(str(c["name"])): c
+                for c in self._runner.introspect().get("components", [])}
 
     # -- switch_controller --------------------------------------------------------------
     def _switch(self, request: Any, response: Any) -> Any:
@@ -184,6 +192,7 @@ class ControllerManager:
         conflict = _claim_conflict(to_activate, to_deactivate, states, claims)
         if conflict:  # refused whatever the strictness, as ros2_control does
             return False, conflict
+        to_deactivate, to_activate = switch_order(to_deactivate, to_activate, self._by_name())
         return self._transitions(to_deactivate, to_activate, strict, timeout)
 
     def _transitions(
