@@ -17,6 +17,15 @@ pytestmark = pytest.mark.integration
         ("scaling", re.compile(r"\| 1000 +\| 200 +\| pure ")),
         ("channels", "| mailbox try_read_into "),
         ("lanes", "| LET lane "),
+        # both networks' rows, bare and in the component; the loop inline and on LET
+        (
+            "policy",
+            re.compile(
+                r"(?s)\| small +\| Policy\.update .*\| large +\| onnxruntime bare .*"
+                r"\| bytes kept per Policy\.update .*\| large inline \(main lane\) +\| \d+ .*"
+                r"\| large on LET \(lane policy, every 20\) +\| \d+ +\| \d+ "
+            ),
+        ),
         # every system's row on both hot paths (a number in each column), and the fit
         (
             "command_limits",
