@@ -18,6 +18,15 @@ pytestmark = pytest.mark.integration
         ("channels", "| mailbox try_read_into "),
         ("lanes", "| LET lane "),
         ("hardware_loop", re.compile(r"(?s)\| 96 +\| \d+\.\d+ +\| \d+\.\d+ .*\| plain +\| ")),
+        # both networks' rows, bare and in the component; the loop inline and on LET
+        (
+            "policy",
+            re.compile(
+                r"(?s)\| small +\| Policy\.update .*\| large +\| onnxruntime bare .*"
+                r"\| bytes kept per Policy\.update .*\| large inline \(main lane\) +\| \d+ .*"
+                r"\| large on LET \(lane policy, every 20\) +\| \d+ +\| \d+ "
+            ),
+        ),
         # every system's row on both hot paths (a number in each column), and the fit
         (
             "command_limits",

@@ -193,6 +193,24 @@ def test_plot_draws_an_array_as_one_line_per_element(tmp_path):
     assert "/s (std_msgs/msg/String): data holds no numbers to plot" in result.stderr
 
 
+def test_plot_marks_where_a_slower_topic_was_written_in_every_subplot(tmp_path):
+    # the cascade's position setpoint comes at 50 Hz: ten marks in 0.2 s, at its times
+    rec = record(tmp_path / "run.mcap", CASCADE)
+    topics = ["/cascade/position", "/cascade/torque"]
+    fig = plot_recording(str(rec), topics, marks="/cascade/position_setpoint")
+    for ax in fig.axes:
+        (marks,) = ax.collections
+        xs = sorted(seg[0][0] for seg in marks.get_segments())
+        assert xs == pytest.approx([k * 0.02 for k in range(10)])
+        assert "/cascade/position_setpoint written (10)" in [
+            t.get_text() for t in ax.get_legend().get_texts()]
+    out = tmp_path / "marked.png"
+    result = run_rtcf("plot", rec, *topics, "--marks", "/cascade/position_setpoint", "-o", out)
+    assert result.returncode == 0 and out.stat().st_size > 10_000, result.stderr
+    result = run_rtcf("plot", rec, *topics, "--marks", "/nothing")
+    assert result.returncode == 1 and "has no topic '/nothing'" in result.stderr
+
+
 def test_plot_of_an_unknown_topic_lists_the_topics(tmp_path, monkeypatch):
     rec = record(tmp_path / "run.mcap", CASCADE, duration="0.01")
     result = run_rtcf("plot", rec, "/cascade/position", "/cascade/nope")

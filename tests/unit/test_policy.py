@@ -267,3 +267,17 @@ def test_a_policy_gone_quiet_leaves_the_pd_stage_in_its_safe_behaviour(
         assert abs(x[-1] - x[1051]) < 0.05
     effort = trace.outputs["/cartpole/effort_command"]
     assert isinstance(pd, JointPd) and effort[-1] is not None
+
+
+@pytest.mark.parametrize("lane", ["policy", "main"])
+def test_both_launch_formats_give_the_same_run(lane: str) -> None:
+    pytest.importorskip("mujoco")
+    args = {"policy_lane": lane, "silent_after_s": "0.3"}  # the deadline passes at 351
+    a = run_launch(EXAMPLE, 400, args=args)
+    b = run_launch(EXAMPLE + ".xml", 400, args=args)
+    assert set(a.outputs) == set(b.outputs) and "/cartpole/target" in a.outputs
+    for topic in a.outputs:
+        for x, y in zip(a.outputs[topic], b.outputs[topic], strict=True):
+            assert (x is None and y is None) or np.array_equal(x, y), topic
+    assert a.components["/cartpole/pd"].changes == b.components["/cartpole/pd"].changes != []
+    assert a.ran["/cartpole/policy"] == b.ran["/cartpole/policy"] == list(range(0, 400, 20))

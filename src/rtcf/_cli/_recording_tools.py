@@ -11,7 +11,9 @@ attachments are not compared: a replay differs from its recording there by desig
 ``rtcf plot run.mcap TOPIC...`` draws topics over time (seconds from the file's first
 message) with matplotlib: one subplot per topic on a shared time axis, or all in one
 with ``--overlay``. Values hold between writes (steps), as the components that read
-them see them. Both read the file with :mod:`rtcf.recording` (the ``mcap`` packages:
+them see them. ``--marks TOPIC`` draws a thin vertical line in every subplot where
+TOPIC was written, as ticks along its bottom edge (a slow component's runs: when a
+policy took its observation). Both read the file with :mod:`rtcf.recording` (the ``mcap`` packages:
 ``pip install 'rtcf[record]'``); plotting needs ``pip install 'rtcf[plot]'``.
 """
 
@@ -414,9 +416,11 @@ def draw(
     *,
     overlay: bool = False,
     figure: Any = None,
+    marks: Series | None = None,
 ) -> Any:
     """A matplotlib Figure of ``series`` over a shared time axis (one subplot each, or
-    all in one with ``overlay``); a new Agg figure unless ``figure`` is given."""
+    all in one with ``overlay``); a new Agg figure unless ``figure`` is given;
+    ``marks``: a vertical line in each subplot at each of its messages' times."""
     if figure is None:
         from matplotlib.backends.backend_agg import FigureCanvasAgg
         from matplotlib.figure import Figure
@@ -448,6 +452,15 @@ def draw(
                 ax.set_yticks([0.0, 1.0], ["false", "true"])
             if len(s.labels) > 1:
                 ax.legend(loc="best", fontsize=8, ncol=min(4, len(s.labels)))
+    if marks is not None:
+        label = f"{marks.topic} written ({len(marks.t_s)})"
+        for ax in axes:
+            # ticks along the bottom edge: the instants, without hatching the lines
+            ax.vlines(marks.t_s, 0.0, 0.07, transform=ax.get_xaxis_transform(),
+                      colors="0.25", linewidth=0.8, zorder=3, label=label)
+            if not overlay:
+                entries = len(ax.get_legend_handles_labels()[1])
+                ax.legend(loc="best", fontsize=8, ncol=min(4, entries))
     if overlay:
         axes[0].set_ylabel("value")
         axes[0].legend(loc="best", fontsize=8)
@@ -473,8 +486,10 @@ def plot_recording(
     field_path: str | None = None,
     overlay: bool = False,
     figure: Any = None,
+    marks: str | None = None,
 ) -> Any:
-    """Read ``path`` and draw ``topics`` (names or full-match regexes): the Figure."""
+    """Read ``path`` and draw ``topics`` (names or full-match regexes): the Figure;
+    ``marks``: a topic whose messages' times are marked in every subplot."""
     try:
         import matplotlib  # noqa: F401  (only: is it installed?)
     except ImportError:
@@ -482,7 +497,11 @@ def plot_recording(
     rec = read(path)
     chosen = resolve_topics(rec, topics)
     series = [series_of(rec, t, field_path) for t in chosen]
-    return draw(rec, series, overlay=overlay, figure=figure)
+    marked = None
+    if marks is not None:
+        topic = resolve_topics(rec, [marks])[0]
+        marked = rec.series(topic) if rec.messages[topic] else None
+    return draw(rec, series, overlay=overlay, figure=figure, marks=marked)
 
 
 def cmd_plot(ns: argparse.Namespace) -> int:
@@ -498,7 +517,8 @@ def cmd_plot(ns: argparse.Namespace) -> int:
             raise ConfigurationError(f"rtcf plot needs matplotlib: {PLOT_HINT}") from None
         figure = plt.figure(figsize=(10.0, 8.0))
     fig = plot_recording(
-        ns.recording, ns.topics, field_path=ns.field, overlay=ns.overlay, figure=figure
+        ns.recording, ns.topics, field_path=ns.field, overlay=ns.overlay, figure=figure,
+        marks=ns.marks,
     )
     if not ns.show or ns.output:
         out = ns.output or str(Path(ns.recording).with_suffix(".png"))
@@ -569,6 +589,12 @@ def add_parsers(sub: Any, add_debug: Callable[[argparse.ArgumentParser], None]) 
         "message has it, else every number but the header)",
     )
     plot.add_argument("--overlay", action="store_true", help="all topics in one axes")
+    plot.add_argument(
+        "--marks",
+        metavar="TOPIC",
+        help="a vertical line in every subplot where TOPIC was written (e.g. a policy's "
+        "observation: when it ran)",
+    )
     plot.add_argument(
         "--show",
         action="store_true",
