@@ -146,6 +146,27 @@ def test_fits_says_whether_a_waiting_producer_may_write() -> None:
     ring.close()
 
 
+def test_push_stamped_writes_two_words_then_the_bytes_and_wraps_and_drops_alike() -> None:
+    ring = _ring(128)
+    assert ring.push_stamped(7, -8, b"abc")  # 8 + 16 + 8: 32 bytes, 0..32
+    assert ring.push_stamped(1, 2, bytes(40))  # 64 bytes: 32..96
+    assert ring.pop() == struct.pack("2q", 7, -8) + b"abc"
+    assert ring.push_stamped(9, 9, b"")  # 24 bytes: 96..120
+    assert ring.push_stamped(3, 4, bytearray(b"x" * 5))  # 32: not in the 8 before the end
+    assert ring.words[120 >> 3] == -1  # the marker; the record at the start
+    assert ring.words[:3].tolist() == [21, 3, 4]
+    assert not ring.push_stamped(5, 6, b"")  # 128 bytes used
+    assert ring.dropped == 1
+    assert _drain(ring) == [
+        struct.pack("2q", 1, 2) + bytes(40), struct.pack("2q", 9, 9),
+        struct.pack("2q", 3, 4) + b"x" * 5,
+    ]
+    with pytest.raises(ValueError, match="record of 57 bytes does not fit"):
+        ring.push_stamped(0, 0, bytes(41))
+    assert ring.push_stamped(0, 0, memoryview(bytes(40)))  # 64 bytes: the largest
+    ring.close()
+
+
 # -- Memory fences (weakly ordered CPUs): the same places as the Ring's ----------------
 
 
@@ -174,8 +195,21 @@ def test_a_producer_fences_between_the_record_and_the_head(
     ring.close()
 
 
-def test_a_wrap_marker_is_written_before_the_fence_that_publishes_it(
+def test_push_stamped_fences_between_the_record_and_the_head(
     monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    ring = _ring(64)
+    ctl = ring._ctl
+    spy = _FenceSpy(monkeypatch, lambda: (ctl[_B_HEAD], ring.words[:4].tolist()))
+    ring.push_stamped(5, 6, struct.pack("q", 7))
+    assert spy.seen == [("rel", 0, [24, 5, 6, 7])]
+    assert ctl[_B_HEAD] == 32
+    ring.close()
+
+
+@pytest.mark.parametrize("how", ["push", "push_stamped"])
+def test_a_wrap_marker_is_written_before_the_fence_that_publishes_it(
+    monkeypatch: pytest.MonkeyPatch, how: str
 ) -> None:
     ring = _ring(64)
     consumer = ByteRing.open(ring._ctl.obj)
@@ -183,10 +217,15 @@ def test_a_wrap_marker_is_written_before_the_fence_that_publishes_it(
     consumer.pop()  # frees 0..32, which the producer has not seen free yet
     ctl = ring._ctl
     spy = _FenceSpy(monkeypatch, lambda: (ctl[_B_TAIL], ctl[_B_HEAD], ring.words[7], ring.words[0]))
-    assert ring.push(bytes(8))  # 16 bytes: 8 left before the end, so a marker at 56
+    # 16 or 24 bytes: 8 left before the end, so a marker at 56
+    if how == "push":
+        assert ring.push(bytes(8))
+    else:
+        assert ring.push_stamped(1, 2, b"")
     # the tail is read, then an acquire fence; the marker and the record, then a release
-    assert spy.seen == [("acq", 32, 56, 0, 24), ("rel", 32, 56, -1, 8)]
-    assert ctl[_B_HEAD] == 64 + 16
+    length = 8 if how == "push" else 16
+    assert spy.seen == [("acq", 32, 56, 0, 24), ("rel", 32, 56, -1, length)]
+    assert ctl[_B_HEAD] == 64 + 8 + length
     consumer.close()
     ring.close()
 

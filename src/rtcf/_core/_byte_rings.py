@@ -181,6 +181,49 @@ class ByteRing(Closing):
         self.commit()
         return True
 
+    def push_stamped(
+        self, first: int, second: int, payload: bytes | bytearray | memoryview
+    ) -> bool:
+        """Commit a record of two int64 words, ``first`` and ``second``, then the bytes of
+        ``payload`` (bytes, a bytearray or a 1-D byte view); False, and one drop, if it
+        does not fit now. One call where reserve, stores, copy and commit would be
+        several: a recording's hot path (the iteration, its stamp, the value)."""
+        n = len(payload)
+        size = self.size
+        need = 24 + ((n + 7) & ~7)
+        if need > (size >> 1):
+            raise ValueError(
+                f"record of {n + 16} bytes does not fit a byte ring of {size} bytes "
+                f"({self.max_record} at most)"
+            )
+        # reserve() and commit() inlined
+        ctl = self._ctl
+        head = ctl[_B_HEAD]
+        at = head & self._mask
+        end = head + need
+        if at + need > size:
+            end += size - at  # and a wrap marker at `at`
+        if end - self._tail_seen > size:
+            tail = self._tail_seen = ctl[_B_TAIL]
+            if _rings.FENCED:
+                _rings.acquire_fence()
+            if end - tail > size:
+                ctl[_B_DROPPED] += 1
+                return False
+        words = self.words
+        if at + need > size:
+            words[at >> 3] = _WRAP
+            at = 0
+        w = at >> 3
+        words[w] = n + 16
+        words[w + 1] = first
+        words[w + 2] = second
+        self.data[at + 24 : at + 24 + n] = payload
+        if _rings.FENCED:  # the record (and its marker), then the head
+            _rings.release_fence()
+        ctl[_B_HEAD] = end
+        return True
+
     def fits(self, n: int) -> bool:
         """Whether a record of ``n`` bytes would fit now (reads the consumer's tail): for
         a producer that may wait for room (a simulated clock), never the real-time one."""

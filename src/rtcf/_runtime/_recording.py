@@ -138,15 +138,12 @@ class RecordTap:
     """Encodes a value with its iteration and stamp into a topic's byte ring (worker
     side): a record of the value's own size."""
 
-    __slots__ = ("_data", "_encode", "_max", "_ring", "_state", "_wait", "_words", "call",
-                 "oversize")
+    __slots__ = ("_encode", "_max", "_ring", "_state", "_wait", "call", "oversize")
 
     def __init__(self, ring: ByteRing, codec: Codec, state: LoopState, wait: bool) -> None:
         # what a recorded port's write calls with each value: this, or the same compiled
         self.call: Callable[[Any], None] = self
         self._ring = ring
-        self._data = ring.data
-        self._words = ring.words
         self._encode = codec.encode
         self._max = codec.max_size  # what a channel of the type takes (a replay feeds it)
         self._state = state
@@ -159,19 +156,11 @@ class RecordTap:
         if n > self._max:
             self.oversize += 1
             return
-        ring = self._ring
         if self._wait:
             self._wait_for_room(n)
-        off = ring.reserve(_STAMP + n)
-        if off < 0:
-            return  # the ring counts the drop
-        w = off >> 3
-        words = self._words
         state = self._state
-        words[w] = state.iteration
-        words[w + 1] = state.stamp_ns
-        self._data[off + _STAMP : off + _STAMP + n] = data
-        ring.commit()
+        # a full ring counts the drop
+        self._ring.push_stamped(state.iteration, state.stamp_ns, data)
 
     def _wait_for_room(self, n: int) -> None:
         """A simulated clock: wait for the supervisor (10 s at most: it may be gone)."""
