@@ -354,14 +354,16 @@ class RecordingDrain:
                 else:
                     self.rings.append((t, Ring.create(view, t.capacity, _HDR + t.max_size)))
 
-    def drain(self, sink: Callable[[Record], None]) -> int:
-        """Hand every waiting record to ``sink``; return how many."""
+    def drain(self, sink: Callable[[Record], None], limit: int = 1 << 62) -> int:
+        """Hand the waiting records to ``sink``, at most ``limit`` of each topic (a
+        supervisor that fell behind must still beat its heartbeat between drains: a byte
+        ring's backlog can be 87,000 records); return how many."""
         total = 0
         for t, ring in self.rings:
             if isinstance(ring, ByteRing):
-                total += _drain_bytes(t.topic, ring, sink)
+                total += _drain_bytes(t.topic, ring, sink, limit)
             else:
-                total += _drain_words(t.topic, ring, sink)
+                total += _drain_words(t.topic, ring, sink, limit)
         return total
 
     def dropped(self) -> dict[str, int]:
@@ -372,11 +374,12 @@ class RecordingDrain:
             ring.close()
 
 
-def _drain_words(topic: str, ring: Ring, sink: Callable[[Record], None]) -> int:
+def _drain_words(topic: str, ring: Ring, sink: Callable[[Record], None], limit: int) -> int:
     total = 0
     while True:
         start, n = ring.pending()
-        if n == 0:
+        n = min(n, limit - total)
+        if n <= 0:
             return total
         size = ring.record_size
         data = ring.data
@@ -394,13 +397,13 @@ def _drain_words(topic: str, ring: Ring, sink: Callable[[Record], None]) -> int:
 _RELEASE_EVERY = 256  # records: a long backlog gives the producer room as it goes
 
 
-def _drain_bytes(topic: str, ring: ByteRing, sink: Callable[[Record], None]) -> int:
+def _drain_bytes(topic: str, ring: ByteRing, sink: Callable[[Record], None], limit: int) -> int:
     position, head = ring.pending()
     if position == head:
         return 0
     data, words, record_at = ring.data, ring.words, ring.record_at
     total = 0
-    while position < head:
+    while position < head and total < limit:
         off, n, position = record_at(position)
         w = off >> 3
         sink(Record(topic, words[w], words[w + 1], bytes(data[off + _STAMP : off + n])))
