@@ -244,8 +244,7 @@ def main() -> int:
     )
     if not args.quick:
         intro = (
-            f"Median of alternating rounds of up to {BATCH} writes each (no more than the "
-            f"ring holds), in one process, hot path "
+            f"Median of alternating rounds of {BATCH} writes each, in one process, hot path "
             f"{result['hot_path']} (`benchmarks/recording.py`)."
         )
         publish_section("recording", [intro, text], machine, timestamp)

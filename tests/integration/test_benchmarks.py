@@ -16,6 +16,8 @@ pytestmark = pytest.mark.integration
         ("overhead", "ratio rtcf pure / plain"),
         ("scaling", re.compile(r"\| 1000 +\| 200 +\| pure ")),
         ("channels", "| mailbox try_read_into "),
+        # every kind's row, and the float array's ring holding its 87,381 records
+        ("recording", re.compile(r"(?s)\| float +\| \d+ .*\| float array, 3 elements .*\| 87381 ")),
         ("lanes", "| LET lane "),
         # every system's row on both hot paths (a number in each column), and the fit
         (
