@@ -16,6 +16,8 @@ pytestmark = pytest.mark.integration
         ("overhead", "ratio rtcf pure / plain"),
         ("scaling", re.compile(r"\| 1000 +\| 200 +\| pure ")),
         ("channels", "| mailbox try_read_into "),
+        # every kind's row, and the float array's ring holding its 87,381 records
+        ("recording", re.compile(r"(?s)\| float +\| \d+ .*\| float array, 3 elements .*\| 87381 ")),
         ("lanes", "| LET lane "),
         ("hardware_loop", re.compile(r"(?s)\| 96 +\| \d+\.\d+ +\| \d+\.\d+ .*\| plain +\| ")),
         # both networks' rows, bare and in the component; the loop inline and on LET

@@ -2,8 +2,8 @@
 
 The child process runs ``sys.executable -c <code>``; the test process is the other
 side. Each test creates its segments itself and hands them to the child as inherited
-file descriptors (anonymous memory: nothing has a name in /dev/shm). The ring and
-mailbox tests run twice on x86: as the CPU needs them (no fences) and with the fences
+file descriptors (anonymous memory: nothing has a name in /dev/shm). The ring, byte
+ring and mailbox tests run twice on x86: as the CPU needs them (no fences) and with the fences
 that weakly ordered CPUs need forced on (RTCF_FENCES=1, in both processes);
 scripts/test-aarch64 runs them on arm64 under QEMU, with RTCF_CHANNEL_TEST_N records.
 """
@@ -23,6 +23,7 @@ from pathlib import Path
 import pytest
 
 from rtcf._core import _rings
+from rtcf._core._byte_rings import ByteRing, record_bytes
 from rtcf._core._rings import Mailbox, Ring
 from rtcf._runtime._shm import Segment
 
@@ -49,6 +50,7 @@ def pattern(seq: int) -> int:
 PREAMBLE = """
 import sys, time
 from rtcf._core import _rings
+from rtcf._core._byte_rings import ByteRing, record_bytes
 from rtcf._core._rings import Mailbox, Ring
 from rtcf._runtime._shm import Segment
 N = int(sys.argv[2])
@@ -255,6 +257,134 @@ def test_ring_between_processes(capacity: int, producer: str, fences: str) -> No
         gaps += sum(b - a - 1 for a, b in pairwise(received))
         assert gaps == dropped
     if capacity >= N:
+        assert dropped == 0
+        assert received == list(range(N))
+
+
+# A ByteRing's records: the sequence number, then whole words of the pattern, then a
+# tail of 0..7 bytes: 8 to 60 bytes, so that records pad, wrap and fill the ring unevenly.
+LENGTH = "8 + 8 * (seq % 7) + seq % 5"
+
+
+def length(seq: int) -> int:
+    return 8 + 8 * (seq % 7) + seq % 5
+
+
+TAILS = [b"\xa5" * r for r in range(8)]
+
+PRODUCE_BYTES_RESERVE_COMMIT = f"""
+from rtcf._core._byte_rings import ByteRing
+ring = ByteRing.open(seg.buf[64:])
+words, data = ring.words, ring.data
+reserve, commit = ring.reserve, ring.commit
+tails = [b"\\xa5" * r for r in range(8)]
+ctl[STARTED] = 1
+t0 = time.perf_counter()
+for seq in range(N):
+    n = {LENGTH}
+    at = reserve(n)
+    if at < 0:
+        continue  # dropped: the ring counts it
+    i = at >> 3
+    v = {PATTERN}
+    words[i] = seq
+    for k in range(i + 1, i + (n >> 3)):
+        words[k] = v
+    whole = at + (n & ~7)
+    data[whole : at + n] = tails[n & 7]
+    commit()
+{EPILOGUE}
+ring.close()
+"""
+
+PRODUCE_BYTES_PUSH = f"""
+import struct
+from rtcf._core._byte_rings import ByteRing
+ring = ByteRing.open(seg.buf[64:])
+push = ring.push
+tails = [b"\\xa5" * r for r in range(8)]
+ctl[STARTED] = 1
+t0 = time.perf_counter()
+for seq in range(N):
+    n = {LENGTH}
+    v = {PATTERN}
+    push(struct.pack(f"{{n >> 3}}q", seq, *([v] * ((n >> 3) - 1))) + tails[n & 7])
+{EPILOGUE}
+ring.close()
+"""
+
+
+def consume_bytes(
+    ring: ByteRing, ctl: memoryview, proc: subprocess.Popen[str]
+) -> tuple[list[int], list[tuple[int, ...]]]:
+    """Drain ``ring`` in place until the producer is done; (sequence numbers, torn)."""
+    received: list[int] = []
+    torn: list[tuple[int, ...]] = []
+    append = received.append
+    words, data = ring.words, ring.data
+    pending, record_at, release_to = ring.pending, ring.record_at, ring.release_to
+    t_end = time.monotonic() + DEADLINE_S
+    while True:
+        position, head = pending()
+        if position < head:
+            while position < head:
+                off, n, position = record_at(position)
+                i = off >> 3
+                seq = words[i]
+                v = pattern(seq)
+                whole = n >> 3
+                if (
+                    n != length(seq)
+                    or any(words[k] != v for k in range(i + 1, i + whole))
+                    or data[off + 8 * whole : off + n] != TAILS[n & 7]
+                ):
+                    torn.append((seq, n, *words[i : i + whole]))
+                append(seq)
+            release_to(position)
+        elif ctl[DONE]:
+            if not len(ring):  # read after DONE: every commit is visible
+                return received, torn
+        else:
+            check_alive(proc, t_end)
+
+
+@pytest.mark.parametrize(
+    ("size", "producer"),
+    [
+        pytest.param(4096, PRODUCE_BYTES_RESERVE_COMMIT, id="small-ring-reserve-commit"),
+        pytest.param(4096, PRODUCE_BYTES_PUSH, id="small-ring-push"),
+        pytest.param(2**26, PRODUCE_BYTES_RESERVE_COMMIT, id="big-ring-reserve-commit"),
+    ],
+)
+def test_byte_ring_between_processes(size: int, producer: str, fences: str) -> None:
+    with (
+        segment(64 + ByteRing.nbytes(size)) as seg,
+        seg.buf[:64].cast("q") as ctl,
+        ByteRing.create(seg.buf[64:], size) as ring,
+    ):
+        t0 = time.perf_counter()
+        with child(PREAMBLE + producer + CLOSE, seg, N) as proc:
+            received, torn = consume_bytes(ring, ctl, proc)
+            elapsed = time.perf_counter() - t0
+            finish(proc)
+        dropped = ring.dropped
+        produce_s = ctl[ELAPSED_NS] / 1e9
+        child_fenced = ctl[FENCED]
+
+    print(
+        f"\nbyte ring {size}: producer {N / produce_s:,.0f} records/s; "
+        f"received {len(received):,} ({len(received) / elapsed:,.0f}/s end to end), "
+        f"dropped {dropped:,}"
+    )
+    assert child_fenced == _rings.FENCED == (fences == "forced" or not _rings.TOTAL_STORE_ORDER)
+    assert torn == []
+    assert all(a < b for a, b in pairwise(received))
+    assert len(received) + dropped == N
+    if dropped:
+        gaps = received[0] + (N - 1 - received[-1])
+        gaps += sum(b - a - 1 for a, b in pairwise(received))
+        assert gaps == dropped
+    if sum(record_bytes(length(seq)) for seq in range(N)) <= size:
         assert dropped == 0
         assert received == list(range(N))
 

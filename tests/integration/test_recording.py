@@ -2,6 +2,10 @@
 file, read back with an independent reader (rosbags) and checked value by value."""
 
 import json
+import signal
+import subprocess
+import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -9,8 +13,9 @@ from mcap.reader import make_reader
 from rosbags.highlevel import AnyReader
 from rosbags.typesys import Stores, get_typestore
 
-from .._launches import EVERY_KIND
-from .conftest import SRC, run_rtcf
+from .._launches import EVERY_KIND, launch_xml, runner_xml
+from .._proc import env_with
+from .conftest import FIXTURES, SRC, run_rtcf
 from .test_cascade_example import N, _reference
 
 pytestmark = pytest.mark.integration
@@ -141,3 +146,47 @@ def test_bad_recording_options_are_one_clear_line(tmp_path):
                       tmp_path / "no" / "dir" / "x.mcap")
     assert result.returncode == 1
     assert "cannot write it: No such file or directory" in result.stderr
+
+
+def test_a_stalled_supervisor_loses_nothing_of_a_float_array_at_1khz(tmp_path):
+    """The supervisor stopped (SIGSTOP) for 500 ms while the loop writes three floats
+    each millisecond: its ring holds them (a byte ring: 48 bytes a record, where a ring
+    of 64 KiB records held 64 of them), and every value is in the file after."""
+    launch = tmp_path / "triple.launch"
+    launch.write_text(launch_xml(
+        '<node name="t" pkg="rtcf" type="rt_launcher" args="rtcf_test_components Triple"/>',
+        runner_xml(1000.0),
+    ))
+    path = tmp_path / "triple.mcap"
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "rtcf", "launch", str(launch), "--duration", "2", "--record",
+         str(path), "--quiet"],
+        stdin=subprocess.DEVNULL, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True,
+        env=env_with(FIXTURES),
+    )
+    try:
+        assert proc.stderr is not None
+        seen = []
+        for line in proc.stderr:  # until the loop runs
+            seen.append(line)
+            if line.startswith("rtcf: running"):
+                break
+        else:
+            pytest.fail("".join(seen))
+        time.sleep(0.3)
+        proc.send_signal(signal.SIGSTOP)  # the supervisor: the worker runs on
+        time.sleep(0.5)
+        proc.send_signal(signal.SIGCONT)
+        _, err = proc.communicate(timeout=60)
+    finally:
+        if proc.poll() is None:
+            proc.send_signal(signal.SIGCONT)
+            proc.kill()
+            proc.communicate()
+    assert proc.returncode == 0, "".join(seen) + err
+    assert f"recorded 4000 messages on 2 topics into {path}; dropped: 0" in err, err
+    meta, _, sequences = mcap_extras(path)
+    assert json.loads(meta["rtcf"]["dropped"]) == {}
+    assert sequences["/a"] == list(range(2000))
+    messages, _ = read(path)
+    assert [list(m.data) for _, m in messages["/a"]] == [[k, k + 0.5, -k] for k in range(2000)]

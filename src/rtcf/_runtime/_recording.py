@@ -1,9 +1,13 @@
 """Recording every port at full loop rate: the worker's taps and the supervisor's drain.
 
-Each recorded topic gets a ring of fixed-size records in one shared segment:
-payload length, the iteration, its stamp (ROS time of the scheduled start, ns), then
-the value's bytes in the topic's codec (:mod:`rtcf._runtime._codec`: primitives and
-float arrays packed as they are, ROS messages as their serialized bytes; nothing is
+Each recorded topic gets a ring in one shared segment. A float, int or bool topic: a
+ring of fixed-size records (payload length, the iteration, its stamp: ROS time of the
+scheduled start, ns; then the value in one word). A topic whose values vary in size (a
+string, a float array, a ROS message): a ring of variable-length records
+(:class:`rtcf._core._byte_rings.ByteRing`: a record takes what its value needs, 48
+bytes for three floats, not the type's worst case of 64 KiB), each the iteration, its
+stamp, then the value's bytes in the topic's codec (:mod:`rtcf._runtime._codec`: float
+arrays packed as they are, ROS messages as their serialized bytes; nothing is
 pickled). An output is recorded at every ``write`` (a tap, as for a mapped port); an
 input fed from the middleware when its feeder brings a new message. A record that
 finds its ring full is dropped and counted by the ring, on the real-time clock; on a
@@ -22,6 +26,7 @@ from dataclasses import dataclass
 from typing import Any, Protocol
 
 from .._core._action_protocol import ActionEvent, ActionRequest
+from .._core._byte_rings import ByteRing, record_bytes
 from .._core._errors import ConfigurationError
 from .._core._loop_state import LoopState
 from .._core._message_types import type_name
@@ -30,7 +35,9 @@ from .._core._rings import Ring
 from ._codec import Codec, codec_for
 from ._port_channels import Feeder
 
-_HDR = 24  # payload length, iteration, stamp: three int64
+_HDR = 24  # a word ring's record: payload length, iteration, stamp: three int64
+_STAMP = 16  # a byte ring's record: iteration, stamp, then the value's bytes
+_WORD_KINDS = ("float", "int", "bool")  # one word each: rings of fixed-size records
 _BUDGET = 4 << 20  # bytes of ring per recorded topic at most
 _MAX_RECORDS = 1 << 14  # 8 s at 2 kHz
 
@@ -44,9 +51,14 @@ class RecordedTopic:
     type_name: str
     kind: str  # the codec
     max_size: int
-    capacity: int
+    capacity: int  # records of a ring of fixed-size records; bytes of a byte ring
     offset: int = 0
     nbytes: int = 0
+
+    @property
+    def byte_ring(self) -> bool:
+        """Whether the topic's values vary in size: a ByteRing of variable-length records."""
+        return self.kind not in _WORD_KINDS
 
 
 def topic_pattern(pattern: str, option: str) -> re.Pattern[str]:
@@ -82,11 +94,22 @@ def recorded_topics(
                     "float numpy arrays or ROS messages, or leave the topic out with "
                     "--record-topics"
                 )
-            size = _HDR + codec.max_size
-            capacity = 64
-            while capacity * 2 <= _MAX_RECORDS and Ring.nbytes(capacity * 2, size) <= _BUDGET:
-                capacity *= 2
-            nbytes = (Ring.nbytes(capacity, size) + 63) // 64 * 64
+            if codec.kind in _WORD_KINDS:
+                size = _HDR + codec.max_size
+                capacity = 64
+                while capacity * 2 <= _MAX_RECORDS and Ring.nbytes(capacity * 2, size) <= _BUDGET:
+                    capacity *= 2
+                nbytes = Ring.nbytes(capacity, size)
+            else:  # as many records as the values need, of the same budget
+                capacity = _BUDGET
+                if 2 * record_bytes(_STAMP + codec.max_size) > capacity:
+                    raise ConfigurationError(
+                        f"port {port.qualified_name} ({port.topic}) is recorded, but its "
+                        f"values of up to {codec.max_size} bytes do not fit the recording's "
+                        f"ring of {capacity} bytes"
+                    )
+                nbytes = ByteRing.nbytes(capacity)
+            nbytes = (nbytes + 63) // 64 * 64
             out.append(
                 RecordedTopic(
                     port.topic, direction, type_name(port.type), codec.kind, codec.max_size,
@@ -112,19 +135,17 @@ def segment_size(topics: list[RecordedTopic]) -> int:
 
 
 class RecordTap:
-    """Encodes a value with its iteration and stamp into a topic's ring (worker side)."""
+    """Encodes a value with its iteration and stamp into a topic's byte ring (worker
+    side): a record of the value's own size."""
 
-    __slots__ = ("_data", "_encode", "_max", "_ring", "_state", "_wait", "_words", "call",
-                 "oversize")
+    __slots__ = ("_encode", "_max", "_ring", "_state", "_wait", "call", "oversize")
 
-    def __init__(self, ring: Ring, codec: Codec, state: LoopState, wait: bool) -> None:
+    def __init__(self, ring: ByteRing, codec: Codec, state: LoopState, wait: bool) -> None:
         # what a recorded port's write calls with each value: this, or the same compiled
         self.call: Callable[[Any], None] = self
         self._ring = ring
-        self._data = ring.data
-        self._words = ring.data.cast("q")
         self._encode = codec.encode
-        self._max = ring.record_size - _HDR
+        self._max = codec.max_size  # what a channel of the type takes (a replay feeds it)
         self._state = state
         self._wait = wait  # simulated clock: wait for room rather than drop
         self.oversize = 0
@@ -135,28 +156,17 @@ class RecordTap:
         if n > self._max:
             self.oversize += 1
             return
-        ring = self._ring
         if self._wait:
-            self._wait_for_room()
-        off = ring.reserve()
-        if off < 0:
-            return  # the ring counts the drop
-        w = off >> 3
-        words = self._words
+            self._wait_for_room(n)
         state = self._state
-        words[w] = n
-        words[w + 1] = state.iteration
-        words[w + 2] = state.stamp_ns
-        self._data[off + _HDR : off + _HDR + n] = data
-        ring.commit()
+        # a full ring counts the drop
+        self._ring.push_stamped(state.iteration, state.stamp_ns, data)
 
-    def _wait_for_room(self) -> None:
+    def _wait_for_room(self, n: int) -> None:
         """A simulated clock: wait for the supervisor (10 s at most: it may be gone)."""
         ring = self._ring
-        if len(ring) < ring.capacity:
-            return
         give_up = time.monotonic() + 10.0
-        while len(ring) >= ring.capacity and time.monotonic() < give_up:
+        while not ring.fits(_STAMP + n) and time.monotonic() < give_up:
             time.sleep(0.0005)
 
     @property
@@ -164,19 +174,25 @@ class RecordTap:
         return self._ring.dropped
 
     def release(self) -> None:
-        self._words.release()
         self._ring.close()
 
 
-class _WordRecordTap(RecordTap):
-    """A float, int or bool: stored as one word of the record, with no bytes made.
+class _WordRecordTap:
+    """A float, int or bool: stored as one word of a fixed-size record, with no bytes
+    made.
 
     The hot path of a recording: one call that stores four words and commits."""
 
-    __slots__ = ("_n", "_values")
+    __slots__ = ("_n", "_ring", "_state", "_values", "_wait", "_words", "call")
+
+    oversize = 0  # a word always fits
 
     def __init__(self, ring: Ring, codec: Codec, state: LoopState, wait: bool) -> None:
-        super().__init__(ring, codec, state, wait)
+        self.call: Callable[[Any], None] = self
+        self._ring = ring
+        self._state = state
+        self._wait = wait  # simulated clock: wait for room rather than drop
+        self._words = ring.data.cast("q")
         self._values = ring.data.cast("d") if codec.kind == "float" else self._words
         self._n = 1 if codec.kind == "bool" else 8  # little-endian: the first byte is it
         # the same push, compiled, for the port's write to call (not on a simulated
@@ -194,19 +210,36 @@ class _WordRecordTap(RecordTap):
             self._words, self._values, self._n, state.iteration, state.stamp_ns, value
         )
 
+    def _wait_for_room(self) -> None:
+        """A simulated clock: wait for the supervisor (10 s at most: it may be gone)."""
+        ring = self._ring
+        if len(ring) < ring.capacity:
+            return
+        give_up = time.monotonic() + 10.0
+        while len(ring) >= ring.capacity and time.monotonic() < give_up:
+            time.sleep(0.0005)
+
+    @property
+    def dropped(self) -> int:
+        return self._ring.dropped
+
     def release(self) -> None:
         if self.call is not self:
             self.call.release()  # type: ignore[attr-defined]
         if self._values is not self._words:
             self._values.release()
-        super().release()
+        self._words.release()
+        self._ring.close()
 
 
-def make_tap(ring: Ring, codec: Codec, state: LoopState, wait: bool) -> RecordTap:
-    """The tap of a topic: words for float, int and bool; encoded bytes for the rest."""
-    if codec.kind in ("float", "int", "bool"):
-        return _WordRecordTap(ring, codec, state, wait)
-    return RecordTap(ring, codec, state, wait)
+def make_tap(
+    view: memoryview, codec: Codec, state: LoopState, wait: bool
+) -> RecordTap | _WordRecordTap:
+    """The tap of a topic, on its ring in ``view``: words for float, int and bool;
+    encoded bytes for the rest."""
+    if codec.kind in _WORD_KINDS:
+        return _WordRecordTap(Ring.open(view), codec, state, wait)
+    return RecordTap(ByteRing.open(view), codec, state, wait)
 
 
 class _Both:
@@ -236,7 +269,7 @@ class WorkerRecording:
         *,
         wait: bool,
     ) -> None:
-        self.taps: dict[str, RecordTap] = {}
+        self.taps: dict[str, RecordTap | _WordRecordTap] = {}
         self._restore: list[tuple[OutputPort[Any], Any]] = []
         self._feeders: list[Feeder] = []
         writers: dict[str, list[OutputPort[Any]]] = {}
@@ -247,12 +280,10 @@ class WorkerRecording:
         # a replay's) are
         fed = {f.topic: f for f in feeders if getattr(f, "topic", None) is not None}
         for t in topics:
-            view = buf[t.offset : t.offset + t.nbytes]
-            ring = Ring.open(view)
-            view.release()
             codec = codec_for(_port_type(writers, fed, t))
             assert codec is not None
-            tap = make_tap(ring, codec, state, wait)
+            with buf[t.offset : t.offset + t.nbytes] as view:
+                tap = make_tap(view, codec, state, wait)
             self.taps[t.topic] = tap
             if t.direction == "output":
                 for port in writers[t.topic]:
@@ -315,31 +346,24 @@ class RecordingDrain:
 
     def __init__(self, buf: memoryview, topics: list[RecordedTopic]) -> None:
         self.topics = topics
-        self.rings: list[tuple[RecordedTopic, Ring]] = []
+        self.rings: list[tuple[RecordedTopic, Ring | ByteRing]] = []
         for t in topics:
-            view = buf[t.offset : t.offset + t.nbytes]
-            self.rings.append((t, Ring.create(view, t.capacity, _HDR + t.max_size)))
-            view.release()
+            with buf[t.offset : t.offset + t.nbytes] as view:
+                if t.byte_ring:
+                    self.rings.append((t, ByteRing.create(view, t.capacity)))
+                else:
+                    self.rings.append((t, Ring.create(view, t.capacity, _HDR + t.max_size)))
 
-    def drain(self, sink: Callable[[Record], None]) -> int:
-        """Hand every waiting record to ``sink``; return how many."""
+    def drain(self, sink: Callable[[Record], None], limit: int = 1 << 62) -> int:
+        """Hand the waiting records to ``sink``, at most ``limit`` of each topic (a
+        supervisor that fell behind must still beat its heartbeat between drains: a byte
+        ring's backlog can be 87,000 records); return how many."""
         total = 0
         for t, ring in self.rings:
-            while True:
-                start, n = ring.pending()
-                if n == 0:
-                    break
-                size = ring.record_size
-                data = ring.data
-                for k in range(n):
-                    off = (start + k) * size
-                    head = data[off : off + _HDR].cast("q")
-                    length, iteration, stamp = head[0], head[1], head[2]
-                    head.release()
-                    payload = bytes(data[off + _HDR : off + _HDR + length])
-                    sink(Record(t.topic, iteration, stamp, payload))
-                ring.release(n)
-                total += n
+            if isinstance(ring, ByteRing):
+                total += _drain_bytes(t.topic, ring, sink, limit)
+            else:
+                total += _drain_words(t.topic, ring, sink, limit)
         return total
 
     def dropped(self) -> dict[str, int]:
@@ -348,3 +372,43 @@ class RecordingDrain:
     def close(self) -> None:
         for _, ring in self.rings:
             ring.close()
+
+
+def _drain_words(topic: str, ring: Ring, sink: Callable[[Record], None], limit: int) -> int:
+    total = 0
+    while True:
+        start, n = ring.pending()
+        n = min(n, limit - total)
+        if n <= 0:
+            return total
+        size = ring.record_size
+        data = ring.data
+        for k in range(n):
+            off = (start + k) * size
+            head = data[off : off + _HDR].cast("q")
+            length, iteration, stamp = head[0], head[1], head[2]
+            head.release()
+            payload = bytes(data[off + _HDR : off + _HDR + length])
+            sink(Record(topic, iteration, stamp, payload))
+        ring.release(n)
+        total += n
+
+
+_RELEASE_EVERY = 256  # records: a long backlog gives the producer room as it goes
+
+
+def _drain_bytes(topic: str, ring: ByteRing, sink: Callable[[Record], None], limit: int) -> int:
+    position, head = ring.pending()
+    if position == head:
+        return 0
+    data, words, record_at = ring.data, ring.words, ring.record_at
+    total = 0
+    while position < head and total < limit:
+        off, n, position = record_at(position)
+        w = off >> 3
+        sink(Record(topic, words[w], words[w + 1], bytes(data[off + _STAMP : off + n])))
+        total += 1
+        if not total % _RELEASE_EVERY:
+            ring.release_to(position)
+    ring.release_to(position)
+    return total

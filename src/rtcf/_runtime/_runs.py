@@ -36,6 +36,7 @@ from ._shm import Segment
 from ._worker_process import WorkerProcess
 
 PUMP_ROWS = 8 * CONSUME_BATCH  # timing rows aggregated per pump, at most
+PUMP_RECORDS = CONSUME_BATCH  # recorded values written per topic and pump, at most
 
 
 @dataclass
@@ -151,8 +152,7 @@ class RunChannels:
             aggregate.consume(ring, names, PUMP_ROWS)
         if self._recording is not None:
             drain, recording = self._recording
-            drain.drain(recording.write)
-
+            drain.drain(recording.write, PUMP_RECORDS)
 
     def ros_offset(self) -> int:
         """What turns a timing row's scheduled start into ROS time: 0 on a simulated
