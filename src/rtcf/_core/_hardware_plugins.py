@@ -31,6 +31,8 @@ GROUP = "rtcf.hardware_interfaces"
 # rtcf's own, as pyproject.toml declares them (a test keeps the two the same)
 BUILTIN = {
     "mock_components/GenericSystem": "rtcf._core._generic_system:GenericSystem",
+    # shipped with rtcf, imported only when a description names it (needs rtcf[canopen])
+    "rtcf_canopen/Cia402System": "rtcf_canopen:Cia402System",
 }
 
 
