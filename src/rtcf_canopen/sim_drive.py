@@ -90,16 +90,16 @@ class SimDrive:
     def _layouts(self) -> None:
         """The mapped PDOs as structs: (PdoMap, Struct, indices) per RPDO, (COB-ID,
         Struct, indices) per TPDO."""
-        self.rpdos = [(pdo, *_struct_of(pdo)) for pdo in self.node.rpdo.map.values()
-                      if pdo.enabled]
-        self.tpdos = [(pdo.cob_id, *_struct_of(pdo)) for pdo in self.node.tpdo.map.values()
-                      if pdo.enabled]
+        rmaps, tmaps = self.node.rpdo.map, self.node.tpdo.map
+        assert rmaps is not None and tmaps is not None
+        self.rpdos = [(pdo, *_struct_of(pdo)) for pdo in rmaps.values() if pdo.enabled]
+        self.tpdos = [(pdo.cob_id, *_struct_of(pdo)) for pdo in tmaps.values() if pdo.enabled]
         self.received: dict[int, int] = {}
 
     def _take_rpdos(self) -> None:
         for pdo, st, indices in self.rpdos:
             if len(pdo.data) >= st.size:
-                self.received.update(zip(indices, st.unpack_from(pdo.data)))
+                self.received.update(zip(indices, st.unpack_from(pdo.data), strict=False))
 
     def _rpdo(self, index: int, default: int) -> int:
         return self.received.get(index, default)
@@ -164,6 +164,7 @@ class SimDrive:
                   0x6077: max(-32768, min(32767, int(self.torque))),
                   0x603F: self.fault_code if self.state == _cia402.FAULT else 0}
         bus = self.network.bus
+        assert bus is not None
         for cob_id, st, indices in self.tpdos:
             data = st.pack(*[values.get(i, 0) for i in indices])
             bus.send(can.Message(arbitration_id=cob_id, is_extended_id=False, data=data))
@@ -179,7 +180,7 @@ def _struct_of(pdo: object) -> tuple[struct.Struct, tuple[int, ...]]:
 
 
 def _clamp32(x: float) -> int:
-    return max(-(2**31), min(2**31 - 1, int(round(x))))
+    return max(-(2**31), min(2**31 - 1, round(x)))
 
 
 def main(argv: list[str] | None = None) -> int:
