@@ -28,6 +28,7 @@ from ._components import (
     StepSupervisor,
 )
 from ._diffbot import MujocoDiffbot, TwistSequence
+from ._mujoco_system import MujocoSystem
 
 __all__ = [
     "BareMinimum",
@@ -44,6 +45,7 @@ __all__ = [
     "MujocoArm",
     "MujocoCartPole",
     "MujocoDiffbot",
+    "MujocoSystem",
     "PaperExample",
     "ParameterHandling",
     "Pid",

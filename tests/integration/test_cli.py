@@ -16,8 +16,9 @@ from .test_worker import bomb
 pytestmark = pytest.mark.integration
 
 # those that need ROS 2 messages run in their suite: the diffbot (nav_msgs, tf2_msgs)
-# in tests/ros2/controllers
-NEEDS_ROS = {"diffbot.launch", "diffbot_bringup.launch.xml"}
+# and the bringups (xacro, control_msgs) in tests/ros2/controllers
+NEEDS_ROS = {"diffbot.launch", "diffbot_bringup.launch.xml",
+             "diffbot_component_bringup.launch.xml", "arm_bringup.launch.xml"}
 EXAMPLES = sorted(
     p for p in (SRC / "rtcf_examples" / "launch").iterdir() if p.name not in NEEDS_ROS
 )

@@ -140,8 +140,8 @@ def test_rt_runner_takes_its_own_parameter_first(tmp_path):
     runner = start_runner("-r", "__node:=rt_runner_param", "--params-file", params)
     try:
         wait_for(runner, "robot description from /rt_runner_param's parameter "
-                         "robot_description: hardware arm (system, rtcf_examples/MujocoArm: "
-                         "3 joints)")
+                         "robot_description: hardware arm (system, "
+                         "rtcf_examples/MujocoSystem: 3 joints)")
         wait_for(runner, "ready")
     finally:
         _, err = stop(runner)

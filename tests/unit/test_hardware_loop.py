@@ -236,3 +236,48 @@ def test_the_bound_steps_allocate_nothing() -> None:
     tracemalloc.stop()
     grown = sum(s.size_diff for s in after.compare_to(before, "filename") if s.size_diff > 0)
     assert grown < 4096, grown
+
+
+class Recorded(SystemInterface):
+    """A system that records every hook it is given (class-wide: the manager builds it)."""
+
+    calls: list[str] = []  # shared on purpose, reset by the test
+
+    def on_init(self, info: Any) -> None:
+        Recorded.calls.append("on_init")
+
+    def on_configure(self, previous_state: Any) -> None:
+        Recorded.calls.append("on_configure")
+
+    def on_activate(self, previous_state: Any) -> None:
+        Recorded.calls.append("on_activate")
+
+    def read(self, time: float, period: float) -> None:
+        Recorded.calls.append("read")
+
+    def write(self, time: float, period: float) -> None:
+        Recorded.calls.append("write")
+
+
+def test_an_offline_runner_touches_no_hardware_and_finds_what_activation_would_refuse(
+) -> None:
+    """rtcf check's runner: the plugins built to on_init, nothing configured (no bus
+    opened); what a start would refuse found from the interfaces that exist."""
+    Recorded.calls = []
+    r = Runner(RunnerSettings(frequency=100.0, robot_description=FLAKY.replace(
+        f"{__name__}:Flaky", f"{__name__}:Recorded")), clock=SimClock(), offline=True)
+    try:
+        r.load(ComponentSpec("wheel", cls=Wheel))
+        r.load(ComponentSpec("typo", cls=Gripper, params={"keys": ["j/velocty"]}))
+        r.load(ComponentSpec("second", cls=Wheel))
+        assert Recorded.calls == ["on_init"]
+        assert r.hardware.rm.list_hardware_components()[0].state.label == "unconfigured"
+        assert r.hardware_problems() == [
+            "Unable to activate controller 'typo' since the command interface 'j/velocty' "
+            "is not available. (no hardware component exports it; did you mean "
+            "'j/velocity'?)",
+            "Unable to activate controller 'second' since the command interface "
+            "'j/velocity' will be used by another controller that is being activated."]
+    finally:
+        r.shutdown()
+    assert "on_activate" not in Recorded.calls

@@ -44,7 +44,7 @@ def test_robot_state_publishers_description_by_its_topic(tmp_path: Path) -> None
         "runner /controller_manager: robot description from robot_state_publisher "
         "/robot_state_publisher's parameter robot_description (topic /robot_description) "
         f"({tmp_path / 'bringup.launch.xml'}:4): hardware arm (system, "
-        "rtcf_examples/MujocoArm: 3 joints)"]
+        "rtcf_examples/MujocoSystem: 3 joints)"]
 
 
 def test_the_topics_must_meet(tmp_path: Path) -> None:
@@ -172,3 +172,30 @@ def test_subscribed_topic() -> None:
     assert subscribed_topic(node("/a", [])) == "/a/robot_description"
     assert subscribed_topic(node("/a", [("robot_description", "/rd")])) == "/rd"
     assert subscribed_topic(node("/a", [("~/robot_description", "/rd2")])) == "/rd2"
+
+
+def test_the_runners_description_file_gives_the_loop_its_hardware(tmp_path: Path) -> None:
+    deployment = deploy(tmp_path, f"""
+        <node pkg="rtcf" exec="rt_runner" name="rt_runner">
+          <param name="robot_description_file" value="{ARM}"/>
+        </node>
+        """)
+    assert deployment.robot_description == ARM.read_text()
+    # the worker builds the hardware from the settings it is sent
+    assert deployment.runner.settings.robot_description == ARM.read_text()
+    assert deployment.notes[0].startswith(
+        "runner /rt_runner: robot description from rt_runner /rt_runner's "
+        "robot_description_file")
+
+
+def test_a_description_file_that_cannot_be_read_names_its_param(tmp_path: Path) -> None:
+    from rtcf._core._errors import LaunchError
+
+    with pytest.raises(LaunchError, match=r"bringup\.launch\.xml:3: /rt_runner's "
+                       r"robot_description_file '/nonexistent/robot\.urdf': cannot read it "
+                       r"\(No such file or directory\)"):
+        deploy(tmp_path, """
+            <node pkg="rtcf" exec="rt_runner" name="rt_runner">
+              <param name="robot_description_file" value="/nonexistent/robot.urdf"/>
+            </node>
+            """)

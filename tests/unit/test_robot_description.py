@@ -518,7 +518,7 @@ def test_the_arm_example_urdf_says_what_its_mujoco_model_says() -> None:
     urdf = (EXAMPLES / "description" / "arm.urdf").read_text()
     (info,) = parse(urdf, "arm.urdf")
     assert (info.name, info.type, info.hardware_plugin_name) == (
-        "arm", "system", "rtcf_examples/MujocoArm")
+        "arm", "system", "rtcf_examples/MujocoSystem")
     model = ET.parse(EXAMPLES / "models" / "arm.xml").getroot()
     ranges = {j.get("name"): tuple(map(float, j.get("range", "").split()))
               for j in model.iter("joint") if j.get("name")}
@@ -526,7 +526,7 @@ def test_the_arm_example_urdf_says_what_its_mujoco_model_says() -> None:
                  for m in model.iter("motor") if m.get("ctrlrange")}
     assert [j.name for j in info.joints] == list(ranges) == ["joint1", "joint2", "joint3"]
     for joint in info.joints:
-        assert [i.name for i in joint.command_interfaces] == ["effort"]
+        assert [i.name for i in joint.command_interfaces] == ["position", "velocity", "effort"]
         assert [i.name for i in joint.state_interfaces] == ["position", "velocity", "effort"]
         lower, upper = ranges[joint.name]
         limits = info.limits[joint.name]

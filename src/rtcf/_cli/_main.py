@@ -17,7 +17,7 @@ from typing import Any
 
 from .. import __version__
 from .._core import _hotpath
-from .._core._clock import MonotonicClock, SimClock
+from .._core._clock import SimClock
 from .._core._command_limits import describe_summary
 from .._core._errors import LaunchError, RtcfError
 from .._core._graph import Graph, to_dot, to_mermaid
@@ -84,15 +84,15 @@ def _load(words: Sequence[str], costs: str | None = None) -> Deployment:
     return deployment
 
 
-def _build_runner(
-    target: RunnerDeployment, deployment: Deployment, sim: bool, log_level: str = "info"
-) -> Runner:
+def _build_runner(target: RunnerDeployment, deployment: Deployment) -> Runner:
+    """The runner of ``target`` in this process, to inspect (on the simulated clock; its
+    hardware, if any, offline: nothing on the robot is touched)."""
     runner = Runner(
         target.settings,
-        clock=SimClock() if sim else MonotonicClock(),
+        clock=SimClock(),
         parameters=deployment.parameters,
         name=target.name,
-        log_level=log_level,
+        offline=True,
     )
     try:
         for spec in target.components:
@@ -159,7 +159,7 @@ def _rate_plan(runner: Runner) -> list[str]:
 def cmd_graph(ns: argparse.Namespace) -> int:
     deployment = _load(ns.target, ns.costs)
     for target in deployment.runners:
-        runner = _build_runner(target, deployment, sim=True)
+        runner = _build_runner(target, deployment)
         try:
             graph = runner.graph
             if ns.format == "dot":
@@ -178,7 +178,7 @@ def cmd_check(ns: argparse.Namespace) -> int:
     for line in check_lines(deployment.other_nodes):  # what rtcf launch would start
         _say(line)
     for target in deployment.runners:
-        runner = _build_runner(target, deployment, sim=True)
+        runner = _build_runner(target, deployment)
         try:
             reason = runner.not_ready_reason()
             graph = runner.graph
@@ -195,6 +195,12 @@ def cmd_check(ns: argparse.Namespace) -> int:
                         f"{spec.module!r} is not in its allowed_modules "
                         f"({' '.join(target.settings.allowed_modules)})",
                         file=target.location.file, line=target.location.line)
+            problems = runner.hardware_problems()
+            if problems:  # each refusal the controller manager would answer with
+                for problem in problems[:-1]:
+                    _say(f"error: {target.location}: {problem}")
+                raise LaunchError(problems[-1], file=target.location.file,
+                                  line=target.location.line)
             print(
                 f"{deployment.source}: OK: runner {target.name}, {len(graph.order)} components, "
                 f"{len(graph.edges)} connections, order: " + " -> ".join(graph.order)

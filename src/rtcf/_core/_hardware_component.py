@@ -62,6 +62,7 @@ class HardwareComponent:
         self.rw_rate = rw_rate
         self.logger = logger
         self.state = UNKNOWN
+        self.last_failure = ""  # what the last hook that raised said (for the error)
         self.last_read_time = math.nan
         self.last_write_time = math.nan
         # bound once: the loop calls these
@@ -80,6 +81,7 @@ class HardwareComponent:
         try:
             value = hook(*args)
         except Exception as exc:  # a plugin's failure, reported, not propagated
+            self.last_failure = f"{type(exc).__name__}: {exc}"
             self.logger.error(
                 "Exception of type : %s occurred while %s hardware '%s': %s",
                 type(exc).__name__, what, self.name, exc)

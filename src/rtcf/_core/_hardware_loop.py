@@ -28,15 +28,15 @@ releases them. The hardware is shut down with the runner.
 from __future__ import annotations
 
 import os
-from collections.abc import Callable, Sequence
-from typing import Any
+from collections.abc import Callable, Iterable, Sequence
+from typing import Any, cast
 
 import numpy as np
 
 from ._command_limits import CommandGuard, Counters, JointLimits
 from ._errors import ConfigurationError
 from ._hardware import ReturnType
-from ._interface_claims import ClaimError
+from ._interface_claims import ClaimError, InterfaceClaims
 from ._interface_ports import COMMAND, HardwareKeys, required_interfaces
 from ._lifecycle import (
     ACTIVE,
@@ -214,8 +214,10 @@ class HardwareLoop:
 
     @classmethod
     def from_settings(cls, settings: RunnerSettings, state: LoopState, ring: RecordSink,
-                      runner: str) -> HardwareLoop | None:
-        """The hardware of the runner's robot description (None: it has none)."""
+                      runner: str, *, offline: bool = False) -> HardwareLoop | None:
+        """The hardware of the runner's robot description (None: it has none).
+        ``offline``: plugins loaded and ``on_init`` only, nothing configured or
+        activated (no bus opened, no device touched: ``rtcf check``, ``rtcf graph``)."""
         found = description_of(settings)
         if found is None:
             return None
@@ -224,8 +226,9 @@ class HardwareLoop:
                                 LogLevel.INFO)
         rm = ResourceManager(parse(text, where), max(1, round(settings.frequency)),
                              logger=logger)
-        rm.set_initial_states(settings.hardware_initial_unconfigured,
-                              settings.hardware_initial_inactive)
+        if not offline:
+            rm.set_initial_states(settings.hardware_initial_unconfigured,
+                                  settings.hardware_initial_inactive)
         return cls(rm, state, logger)
 
     # ------------------------------------------------------------- the loop's steps
@@ -340,6 +343,32 @@ class HardwareLoop:
                 guard.reset()
         return ""
 
+    def preflight(self, controllers: Iterable[tuple[str, Any, bool]]) -> list[str]:
+        """What the controller manager would refuse, before anything runs (``rtcf
+        check``): each of ``controllers`` (name, component, whether it starts active)
+        naming an interface no hardware exports, and the interfaces two that start
+        active would both claim. ros2_control's words, one line each."""
+        # whether each interface exists, whatever its hardware's state (offline: none
+        # is configured), in the claims' own words
+        claims = InterfaceClaims(cast(ResourceManager, _Exported(self.rm)), True, self.log)
+        problems: list[str] = []
+        starting: dict[str, list[str]] = {}
+        reading: dict[str, list[str]] = {}
+        for name, component, autostart in controllers:
+            if not component._rtcf_bound:
+                continue
+            commands, states = required_interfaces(component)
+            controller = controller_name(name)
+            why = claims.check({controller: commands}, state_interfaces={controller: states})
+            if why:
+                problems.append(why)
+            elif autostart:
+                starting[controller], reading[controller] = commands, states
+        why = claims.check(starting, state_interfaces=reading)
+        if why:
+            problems.append(why)
+        return problems
+
     def release(self, name: str) -> None:
         """``name`` is no longer active: its claims go."""
         if self._claimed.pop(name, None) is not None:
@@ -387,6 +416,18 @@ class HardwareLoop:
         """Every hardware to finalized (the runner's teardown)."""
         self._claimed.clear()
         self.rm.shutdown_components()
+
+
+class _Exported:
+    """A resource manager as seen offline: an interface is available if it exists."""
+
+    def __init__(self, rm: ResourceManager) -> None:
+        self._rm = rm
+        self.command_interface_is_available = rm.command_interface_exists
+        self.state_interface_is_available = rm.state_interface_exists
+
+    def __getattr__(self, name: str) -> Any:
+        return getattr(self._rm, name)
 
 
 def controller_name(component: str) -> str:

@@ -9,7 +9,8 @@ entry point: a package declares, in its ``pyproject.toml``,
     "my_robot/MyRobotSystem" = "my_robot.hardware:MyRobotSystem"
 
 and :func:`load_hardware_class` finds the class by the tag's plugin name. rtcf's own
-(``mock_components/GenericSystem``) are declared the same way in rtcf's pyproject.toml,
+(``mock_components/GenericSystem``, and the examples' ``rtcf_examples/MujocoSystem``,
+which the same distribution ships) are declared the same way in rtcf's pyproject.toml,
 and known here too, so that they are found when rtcf runs from its source tree.
 
 As a Python-only convenience, ``<plugin>`` may also name the class directly:
@@ -31,6 +32,7 @@ GROUP = "rtcf.hardware_interfaces"
 # rtcf's own, as pyproject.toml declares them (a test keeps the two the same)
 BUILTIN = {
     "mock_components/GenericSystem": "rtcf._core._generic_system:GenericSystem",
+    "rtcf_examples/MujocoSystem": "rtcf_examples._mujoco_system:MujocoSystem",
     # shipped with rtcf, imported only when a description names it (needs rtcf[canopen])
     "rtcf_canopen/Cia402System": "rtcf_canopen:Cia402System",
 }

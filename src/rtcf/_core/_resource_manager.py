@@ -176,9 +176,11 @@ class ResourceManager:
             f"{getattr(self.logger, 'name', 'rtcf')}.{info.name}")
         component = HardwareComponent(impl, info, rw_rate, logger)
         if component.initialize() != UNCONFIGURED:
+            why = component.last_failure  # what on_init raised, if it did
             raise ConfigurationError(
                 f"{info.type.capitalize()} hardware component '{info.name}' from plugin "
-                f"'{info.hardware_plugin_name}' failed to initialize.")
+                f"'{info.hardware_plugin_name}' failed to initialize." + (f" {why}" if why
+                                                                          else ""))
         return component
 
     def _validate(self, infos: Sequence[HardwareInfo]) -> None:

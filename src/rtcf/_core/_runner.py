@@ -70,7 +70,11 @@ class Runner:
         log_ring: RecordSink | None = None,
         log_emit: Callable[[int, str, str, int, int], None] | None = None,
         stop_flag: StopFlag | None = None,
+        offline: bool = False,
     ) -> None:
+        """``offline``: the robot description's hardware is built to ``on_init`` only,
+        never configured or activated (tools that inspect a launch file: no bus opened,
+        no device touched)."""
         self.settings = settings or RunnerSettings()
         self.name = name
         self.clock: Clock = clock or MonotonicClock()
@@ -86,7 +90,7 @@ class Runner:
         level = LogLevel[log_level.upper()] if isinstance(log_level, str) else log_level
         # the robot description's hardware, built here: in a worker, the loop's process
         self.hardware = HardwareLoop.from_settings(
-            self.settings, self.state, self._notices.ring, name)
+            self.settings, self.state, self._notices.ring, name, offline=offline)
         # the collaborators, each given what it needs (none sees the runner itself)
         self._components = Components(
             self.settings, self.parameters, self.state, self._notices, level
@@ -412,6 +416,15 @@ class Runner:
     def not_ready_reason(self) -> str | None:
         """Why the mode does not let the loop run now (None: it does)."""
         return self._loop.not_ready_reason()
+
+    def hardware_problems(self) -> list[str]:
+        """What activating the loaded controllers on the robot's hardware would refuse
+        (an interface no hardware exports, one claimed twice): ``rtcf check``'s."""
+        if self.hardware is None:
+            return []
+        entries = self._components.entries
+        return self.hardware.preflight(
+            (name, e.component, e.autostart) for name, e in entries.items())
 
     def run(
         self,

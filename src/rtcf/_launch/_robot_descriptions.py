@@ -11,7 +11,8 @@ ros_control reads the parameter ``robot_description`` from the parameter server.
 Under ``rtcf launch`` no robot_state_publisher runs and no topic is read: the launch
 file is. A runner (``rt_runner`` or ``ros2_control_node``) takes, in this order:
 
-1. its own ``robot_description`` parameter;
+1. its own ``robot_description`` parameter, or the file its ``robot_description_file``
+   parameter names (an rtcf runner's own convenience);
 2. the ``robot_description`` parameter of the ROS 2 ``robot_state_publisher`` node of
    the file whose topic (``robot_description`` in its namespace, after its remaps) is
    the one the runner subscribes to (``robot_description`` in the runner's namespace
@@ -27,15 +28,17 @@ tag (a robot_state_publisher's for a robot without ros2_control) has no hardware
 
 from __future__ import annotations
 
+import os
 from collections.abc import Sequence
 from dataclasses import dataclass
 
-from .._core._errors import Location
+from .._core._errors import LaunchError, Location
 from .._core._names import Resolver, join, namespace_of
 from .._core._robot_description import HardwareInfo, parse
 from ._description import LaunchDescription, NodeDescription
 
 PARAM = "robot_description"
+FILE_PARAM = "robot_description_file"
 PUBLISHER = ("robot_state_publisher", "robot_state_publisher")  # package, executable
 CONTROL_NODE = ("controller_manager", "ros2_control_node")
 
@@ -98,6 +101,18 @@ def for_runner(
             )
         return read(text, locations.get(own, node.location),
                     f"{node.executable} {node.full_name}'s parameter {PARAM}")
+    own_file = f"{node.full_name}/{FILE_PARAM}"
+    path = params.get(own_file, None)
+    if isinstance(path, str) and path.strip():
+        where = locations.get(own_file, node.location)
+        try:
+            with open(os.path.expanduser(path), encoding="utf-8") as f:
+                text = f.read()
+        except OSError as exc:
+            raise LaunchError(
+                f"{node.full_name}'s {FILE_PARAM} {path!r}: cannot read it ({exc.strerror}); "
+                "give the path of the robot's URDF", file=where.file, line=where.line) from None
+        return read(text, Location(path), f"{node.executable} {node.full_name}'s {FILE_PARAM}")
     found = _from_publisher(node, description.nodes, description, warnings)
     if found is not None:
         return found

@@ -98,3 +98,31 @@ def test_a_robot_runs_from_its_description_with_mock_hardware(ros_node) -> None:
         assert hardware[0].state.label == "inactive"
     finally:
         stop(proc)
+
+
+def test_rtcf_check_names_what_the_controller_manager_would_refuse(tmp_path) -> None:
+    """Before anything runs: the typo is an interface no hardware exports, and two
+    controllers that start active on one joint would both claim it."""
+    import subprocess
+    import sys
+
+    text = LAUNCH.read_text()
+    ok = subprocess.run([sys.executable, "-m", "rtcf", "check", str(LAUNCH)],
+                        capture_output=True, text=True, env=rtcf_env(), timeout=120)
+    assert ok.returncode == 1
+    assert ok.stderr.strip().splitlines()[-1].endswith(
+        "Unable to activate controller 'typo_controller' since the command interface "
+        "'gripper_joint/positon' is not available. (no hardware component exports it; did "
+        "you mean 'gripper_joint/position'?)"), ok.stderr
+    # other_controller (on joint3, like arm_controller) made to start active too
+    both = tmp_path / "hardware_both_active.launch.xml"
+    both.write_text(text.replace("$(dirname)", str(LAUNCH.parent)).replace(
+        '<param name="autostart" value="false"/>\n  </node>\n  <node pkg="rtcf" '
+        'exec="rt_launcher" name="typo_controller"',
+        '</node>\n  <node pkg="rtcf" exec="rt_launcher" name="typo_controller"', 1))
+    assert both.read_text().count('"autostart"') == 1
+    clash = subprocess.run([sys.executable, "-m", "rtcf", "check", str(both)],
+                           capture_output=True, text=True, env=rtcf_env(), timeout=120)
+    assert clash.returncode == 1
+    assert "'joint3/position' will be used by another controller that is being activated" \
+        in clash.stderr, clash.stderr
