@@ -30,7 +30,7 @@ import can
 import canopen
 
 from . import _cia402
-from ._drive import default_eds
+from ._config import default_eds
 
 
 class SimDrive:

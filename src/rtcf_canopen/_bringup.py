@@ -1,4 +1,4 @@
-"""One drive of a Cia402System: its joint's parameters, and its bring-up over SDO.
+"""The bring-up of a Cia402System's drives over SDO, outside the loop, and the bus's close.
 
 The bring-up is ros2_canopen's (``canopen_402_driver``, with the PDO mapping its
 ``bus.yml`` gives a CiA 402 drive), made with canopen's own objects on a network that no
@@ -12,9 +12,7 @@ operation by SDO, NMT operational.
 
 from __future__ import annotations
 
-import math
-from dataclasses import dataclass
-from importlib import resources
+import contextlib
 
 import canopen
 from canopen.objectdictionary import (
@@ -28,97 +26,55 @@ from canopen.objectdictionary import (
 from canopen.sdo import SdoAbortedError, SdoCommunicationError
 
 from . import _cia402
-from ._bus import PolledRemoteNode
+from ._bus import PolledRemoteNode, quiet_canopen
+from ._config import DriveConfig, SystemConfig
 from ._exchange import RPDO_FIELDS, TPDO_FIELDS, DriveLayout, PdoLayout
 
 _CODES = {UNSIGNED8: "B", INTEGER8: "b", UNSIGNED16: "H", INTEGER16: "h",
           UNSIGNED32: "I", INTEGER32: "i"}
 
 
-def default_eds() -> str:
-    """The project's own CiA 402 EDS (rtcf_canopen/data/cia402_drive.eds)."""
-    return str(resources.files("rtcf_canopen") / "data" / "cia402_drive.eds")
-
-
 class DriveError(Exception):
     """A drive could not be brought up: one line naming it, the bus and what to do."""
 
 
-@dataclass
-class DriveConfig:
-    """A ``<joint>``'s drive: its ``<param>``s and its interfaces."""
-
-    joint: str
-    node_id: int
-    eds: str
-    mode: int  # CSP, CSV or CST, from the joint's first command interface
-    commands: tuple[str, ...]  # position, velocity, effort: those the joint has
-    states: tuple[str, ...]
-    # device units = value * to_dev + offset_to_dev; value = device * from_dev + offset_from_dev
-    scale_pos_to_dev: float = 1000.0
-    scale_pos_from_dev: float = 0.001
-    offset_pos_to_dev: float = 0.0
-    offset_pos_from_dev: float = 0.0
-    scale_vel_to_dev: float = 1000.0
-    scale_vel_from_dev: float = 0.001
-    scale_eff_to_dev: float = 1.0
-    scale_eff_from_dev: float = 1.0
-
-    def name(self, bus: str) -> str:
-        return f"CANopen drive node {self.node_id} (joint '{self.joint}') on bus {bus}"
-
-    @property
-    def needs_rpdo2(self) -> bool:
-        return "velocity" in self.commands or "effort" in self.commands
-
-    @property
-    def needs_tpdo2(self) -> bool:
-        return "velocity" in self.states or "effort" in self.states
-
-
-def config_of(joint: str, params: dict[str, str], commands: tuple[str, ...],
-              states: tuple[str, ...]) -> DriveConfig:
-    """A joint's DriveConfig from its ``<param>``s (ValueError: one line naming it)."""
-    where = f"<joint name=\"{joint}\">"
-    if "node_id" not in params:
-        raise ValueError(f"{where}: no <param name=\"node_id\"> (the drive's CANopen node "
-                         "id, 1 to 127)")
+def open_drives(config: SystemConfig) -> tuple[canopen.Network, list[DriveLayout]]:
+    """Open the bus and bring every drive up over SDO, outside the loop; the network
+    (no Notifier thread) and each drive's PDO layouts. DriveError: one line naming the
+    bus or the drive and what to do."""
+    settings = config.bus
     try:
-        node_id = int(params["node_id"], 0)
-    except ValueError:
-        raise ValueError(f"{where}: node_id {params['node_id']!r} is not a number") from None
-    if not 1 <= node_id <= 127:
-        raise ValueError(f"{where}: node_id {node_id} is out of 1 to 127")
-    known = [c for c in commands if c in _cia402.MODE_OF_INTERFACE]
-    if not known:
-        raise ValueError(f"{where}: needs a command interface position, velocity or effort "
-                         f"(it has {', '.join(commands) or 'none'}): the mode of operation "
-                         "(cyclic synchronous position, velocity or torque) follows it")
-    cfg = DriveConfig(joint, node_id, params.get("eds") or params.get("dcf") or default_eds(),
-                      _cia402.MODE_OF_INTERFACE[known[0]], tuple(known),
-                      tuple(s for s in states if s in ("position", "velocity", "effort")))
-    for name in ("scale_pos_to_dev", "scale_pos_from_dev", "offset_pos_to_dev",
-                 "offset_pos_from_dev", "scale_vel_to_dev", "scale_vel_from_dev",
-                 "scale_eff_to_dev", "scale_eff_from_dev"):
-        if name in params:
-            try:
-                value = float(params[name])
-            except ValueError:
-                raise ValueError(f"{where}: {name} {params[name]!r} is not a number") from None
-            if not math.isfinite(value) or (name.startswith("scale") and value == 0):
-                raise ValueError(f"{where}: {name} must be finite and not 0")
-            setattr(cfg, name, value)
-    # given one direction only: the other is its inverse (counts per radian, say)
-    for kind in ("pos", "vel", "eff"):
-        to, frm = f"scale_{kind}_to_dev", f"scale_{kind}_from_dev"
-        if to in params and frm not in params:
-            setattr(cfg, frm, 1.0 / getattr(cfg, to))
-        elif frm in params and to not in params:
-            setattr(cfg, to, 1.0 / getattr(cfg, frm))
-    return cfg
+        bus = settings.open()
+    except Exception as exc:  # python-can's errors, OSError: the bus is not there
+        raise DriveError(
+            f"cannot open the CAN bus {settings} ({exc}): check the interface and channel "
+            "parameters (on a robot: interface socketcan, channel can0, the link up with "
+            f"'ip link set can0 up type can bitrate {settings.bitrate}')") from None
+    network = canopen.Network(bus)  # no connect(): no Notifier thread
+    try:
+        with quiet_canopen():
+            layouts = [bring_up(network, drive, str(settings), config.sdo_timeout)
+                       for drive in config.drives]
+    except DriveError:
+        close(network)
+        raise
+    return network, layouts
 
 
-def bring_up(network: canopen.Network, cfg: DriveConfig, bus: str) -> DriveLayout:
+def close(network: canopen.Network, pre_operational: bool = False) -> None:
+    """The drives to NMT pre-operational (if asked; not waited for) and the bus shut."""
+    if pre_operational:
+        with contextlib.suppress(Exception), quiet_canopen():
+            for node in network.values():
+                node.nmt.state = "PRE-OPERATIONAL"
+    bus, network.bus = network.bus, None
+    if bus is not None:
+        with contextlib.suppress(Exception):
+            bus.shutdown()
+
+
+def bring_up(network: canopen.Network, cfg: DriveConfig, bus: str,
+             sdo_timeout: float = 0.3) -> DriveLayout:
     """Bring one drive up over SDO; its PDOs' layouts as mapped (DriveError if not)."""
     who = cfg.name(bus)
     try:
@@ -127,6 +83,7 @@ def bring_up(network: canopen.Network, cfg: DriveConfig, bus: str) -> DriveLayou
         raise DriveError(f"{who}: cannot read its EDS/DCF {cfg.eds!r} ({exc}): give the "
                          "drive's file as <param name=\"eds\">") from None
     network.add_node(node)
+    node.sdo.RESPONSE_TIMEOUT = sdo_timeout
     try:
         node.sdo.upload(0x1000, 0)  # device type: is it there?
     except SdoCommunicationError:
