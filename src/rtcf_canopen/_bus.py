@@ -37,6 +37,12 @@ class BusSettings:
     def __str__(self) -> str:
         return f"{self.interface}:{self.channel}"
 
+    @property
+    def filters_in_kernel(self) -> bool:
+        """Whether python-can filters frames before they reach Python (socketcan's
+        CAN_RAW_FILTER); elsewhere it filters in ``recv``, after building each message."""
+        return self.interface == "socketcan"
+
     def open(self) -> can.BusABC:
         """The python-can bus (no Notifier, no filters: a filtered frame would end a
         non-blocking drain early in python-can's ``recv``)."""

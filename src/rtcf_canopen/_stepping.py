@@ -13,8 +13,8 @@ import time
 from collections.abc import Callable
 
 from . import _cia402
-from ._exchange import CONTROLWORD, Exchange
-from ._watch import DriveWatch
+from ._exchange import Exchange
+from ._watch import DriveWatch, states_of
 
 
 class Stepper:
@@ -35,21 +35,21 @@ class Stepper:
             ex.send_sync()
             ex.collect(0.02)
             self.after_answers()
-            states = [_cia402.state_of(sw) for sw in ex.statusword]
+            states = states_of(ex)
             if all(s == target for s in states):
                 return ""
             if time.monotonic() > deadline:
                 return self.watch.not_in(ex, target)
+            cw = ex.controlword
             for d, s in enumerate(states):
-                ex.out[d][CONTROLWORD] = _cia402.step_toward(s, target, ex.out[d][CONTROLWORD])
+                cw[d] = _cia402.step_toward(s, target, int(cw[d]))
 
     def safe_state(self, wait: bool) -> None:
         """Quick stop, then voltage off (``wait``: step until there, 0.5 s at most each;
         else the quick stop is sent once, not waited for)."""
         ex, log, name = self.ex, self.watch.log, self.watch.hardware
-        for d in range(ex.n):
-            s = _cia402.state_of(ex.statusword[d])
-            ex.out[d][CONTROLWORD] = _cia402.step_toward(s, _cia402.QUICK_STOP_ACTIVE)
+        for d, s in enumerate(states_of(ex)):
+            ex.controlword[d] = _cia402.step_toward(s, _cia402.QUICK_STOP_ACTIVE)
         if not wait:
             ex.send_rpdos()
             ex.send_sync()

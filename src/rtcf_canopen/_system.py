@@ -28,7 +28,7 @@ from rtcf._core._hardware_layout import InterfaceDescription, describe  # not pu
 from . import _cia402
 from ._bringup import DriveError, close, open_drives
 from ._config import SystemConfig
-from ._exchange import CONTROLWORD, MODE, POSITION, Exchange
+from ._exchange import Exchange
 from ._stepping import Stepper
 from ._units import EXTRA_STATES, Units
 from ._watch import DriveWatch
@@ -72,21 +72,27 @@ class Cia402System(rtcf.SystemInterface):
             self.logger.error("hardware '%s': %s", self.name, exc)
             return CallbackReturn.ERROR
         assert self.network.bus is not None
-        ex = self.exchange = Exchange(self.network.bus, layouts)
-        self.units = Units(self, self.drives)
+        try:
+            ex = self.exchange = Exchange(self.network.bus, layouts)
+        except ValueError as exc:  # drives mapped unlike each other
+            self.logger.error("hardware '%s': on bus %s, %s", self.name, self.bus_name, exc)
+            self._close()
+            return CallbackReturn.ERROR
+        if self.config.bus.filters_in_kernel:  # the loop then sees its drives' frames only
+            self.network.bus.set_filters(ex.filters())
+        units = self.units = Units(self, self.drives, ex)
         self.watch = DriveWatch(self.logger, self.name, self.drives, self.bus_name,
                                 self.config.max_stale_cycles)
-        self.stepper = Stepper(ex, self.watch, lambda: self.units.to_states(ex, self._active))
+        self.stepper = Stepper(ex, self.watch, lambda: units.to_states(self._active))
         self._mode_of = [d.mode for d in self.drives]
-        for d, drive in enumerate(self.drives):
-            ex.out[d][MODE] = drive.mode
-            ex.out[d][CONTROLWORD] = _cia402.CW_DISABLE_VOLTAGE
+        ex.mode[:] = self._mode_of
+        ex.controlword[:] = _cia402.CW_DISABLE_VOLTAGE
         # a first exchange: the states are the drives' from configure on
         ex.send_rpdos()
         ex.send_sync()
         if not ex.collect(0.1):
             self.watch.missing(ex, "after its bring-up")
-        self.units.to_states(ex, False)
+        units.to_states(False)
         self.logger.info("hardware '%s': %d CiA 402 drive(s) on %s: %s", self.name,
                          len(self.drives), self.bus_name, ", ".join(
                              f"node {d.node_id} ({d.joint}, {_cia402.MODE_NAMES[d.mode]})"
@@ -96,8 +102,7 @@ class Cia402System(rtcf.SystemInterface):
     def on_activate(self, previous_state: Any) -> CallbackReturn:
         ex = self.exchange
         assert ex is not None
-        for d in range(ex.n):
-            ex.out[d][MODE] = self._mode_of[d]
+        ex.mode[:] = self._mode_of
         state = self.stepper.step_all(_cia402.OPERATION_ENABLED, self.config.activate_timeout)
         if state:
             self.logger.error("hardware '%s': %s did not reach OPERATION ENABLED within "
@@ -105,6 +110,7 @@ class Cia402System(rtcf.SystemInterface):
                               self.config.activate_timeout, state)
             return CallbackReturn.ERROR
         self.units.hold()
+        ex.controlword[:] = _cia402.CW_ENABLE_OPERATION  # held by every write
         self._active = True
         self.logger.info("hardware '%s': %d drive(s) in OPERATION ENABLED", self.name, ex.n)
         return CallbackReturn.SUCCESS
@@ -160,10 +166,10 @@ class Cia402System(rtcf.SystemInterface):
                 if drive.joint == joint and interface in _cia402.MODE_OF_INTERFACE:
                     self._mode_of[d] = _cia402.MODE_OF_INTERFACE[interface]
                     if self.exchange is not None:
-                        self.exchange.out[d][MODE] = self._mode_of[d]
+                        self.exchange.mode[d] = self._mode_of[d]
                         # the new mode starts from where the drive is
                         if self.units.has_position:
-                            self.units.targets["position"][d] = self.exchange.raw[d, POSITION]
+                            self.units.targets["position"][d] = self.exchange.position[d]
         return _OK
 
     # ------------------------------------------------------------------ the loop
@@ -175,8 +181,9 @@ class Cia402System(rtcf.SystemInterface):
         ex.drain()
         ex.finish_cycle()
         active = self._active
-        self.units.to_states(ex, active)
-        if not self.watch.check(ex, active):
+        units = self.units
+        units.to_states(active)
+        if not self.watch.check(ex, active, units.state_bytes):
             return _ERROR
         if not active:
             # write does not run while inactive: keep the drives answering (state only)
@@ -188,10 +195,7 @@ class Cia402System(rtcf.SystemInterface):
         ex = self.exchange
         if ex is None:
             return _ERROR
-        self.units.to_targets(ex)
-        out = ex.out
-        for d in range(ex.n):
-            out[d][CONTROLWORD] = _cia402.CW_ENABLE_OPERATION
+        self.units.to_targets()
         ex.send_rpdos()
         self._writes += 1
         if not self._sync_every:

@@ -27,17 +27,22 @@ class DriveWatch:
         self.max_stale_cycles = max_stale_cycles
         self._fault_logged = [False] * len(drives)
         self._silent_logged = [False] * len(drives)
+        self._any_silent = False
+        self._enabled = bytes([_cia402.OPERATION_ENABLED]) * len(drives)
 
     def who(self, d: int) -> str:
         return self.drives[d].name(self.bus)
 
-    def check(self, ex: Exchange, active: bool) -> bool:
+    def check(self, ex: Exchange, active: bool, states: bytearray) -> bool:
         """After a drain: False if a drive is in FAULT, left OPERATION ENABLED while
-        active, or has been silent for ``max_stale_cycles``; each said once."""
+        active, or has been silent for ``max_stale_cycles``; each said once. ``states``:
+        the drives' CiA 402 states, a byte each (one comparison when all is well)."""
+        if active and ex.all_fresh and states == self._enabled and not self._any_silent:
+            return True
         sws, age, limit = ex.statusword, ex.age, self.max_stale_cycles
         ok = True
         for d in range(ex.n):
-            sw = sws[d]
+            sw = int(sws[d])
             if sw & 0x4F in (0x08, 0x0F):  # FAULT, FAULT REACTION ACTIVE
                 if not self._fault_logged[d]:
                     self._fault_logged[d] = True
@@ -49,7 +54,7 @@ class DriveWatch:
                     "0x%04X); the hardware goes through on_error", self.hardware, self.who(d),
                     _cia402.STATE_NAMES[_cia402.state_of(sw)], sw)
                 ok = False
-            a = age[d]
+            a = int(age[d])
             if a:
                 if a == _SILENT_AFTER and not self._silent_logged[d]:
                     self._silent_logged[d] = True
@@ -67,6 +72,7 @@ class DriveWatch:
                 self._silent_logged[d] = False
                 self.log.info("hardware '%s': %s answers again (%d stale cycles in all)",
                               self.hardware, self.who(d), ex.stale[d])
+        self._any_silent = any(self._silent_logged)
         return ok
 
     def not_in(self, ex: Exchange, target: int) -> str:
@@ -74,8 +80,8 @@ class DriveWatch:
         code ("" when all are)."""
         return "; ".join(
             f"node {self.drives[d].node_id} is {_cia402.STATE_NAMES[s]} (statusword "
-            f"0x{ex.statusword[d]:04X}{_code_text(ex, d)})"
-            for d, s in enumerate(map(_cia402.state_of, ex.statusword)) if s != target)
+            f"0x{int(ex.statusword[d]):04X}{_code_text(ex, d)})"
+            for d, s in enumerate(states_of(ex)) if s != target)
 
     def report(self, ex: Exchange) -> None:
         """The stale cycles per drive, since the bus was opened."""
@@ -84,8 +90,8 @@ class DriveWatch:
         for d, drive in enumerate(self.drives):
             self.log.info(
                 "hardware '%s': node %d: %d SYNCs, %d stale cycles (%.2f %%), longest %d",
-                self.hardware, drive.node_id, ex.syncs, ex.stale[d],
-                100.0 * ex.stale[d] / ex.syncs, ex.longest[d])
+                self.hardware, drive.node_id, ex.syncs, int(ex.stale[d]),
+                100.0 * int(ex.stale[d]) / ex.syncs, int(ex.longest[d]))
 
     def missing(self, ex: Exchange, when: str) -> None:
         for d in range(ex.n):
@@ -94,8 +100,8 @@ class DriveWatch:
                                  self.who(d), when)
 
     def _log_fault(self, ex: Exchange, d: int, sw: int) -> None:
-        code = ex.emcy_code[d]
-        said = (f"error code 0x{code:04X} (error register 0x{ex.emcy_register[d]:02X}) from "
+        code = int(ex.emcy_code[d])
+        said = (f"error code 0x{code:04X} (error register 0x{int(ex.emcy_register[d]):02X}) from "
                 "its EMCY" if code else "no EMCY received")
         self.log.error(
             "hardware '%s': %s is in FAULT (statusword 0x%04X, %s); the hardware goes "
@@ -104,6 +110,11 @@ class DriveWatch:
             self.who(d), sw, said)
 
 
+def states_of(ex: Exchange) -> list[int]:
+    """The drives' CiA 402 states (outside the loop)."""
+    return [_cia402.state_of(int(sw)) for sw in ex.statusword]
+
+
 def _code_text(ex: Exchange, d: int) -> str:
-    code = ex.emcy_code[d]
+    code = int(ex.emcy_code[d])
     return f", EMCY error code 0x{code:04X}" if code else ""
