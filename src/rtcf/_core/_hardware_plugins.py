@@ -33,6 +33,8 @@ GROUP = "rtcf.hardware_interfaces"
 BUILTIN = {
     "mock_components/GenericSystem": "rtcf._core._generic_system:GenericSystem",
     "rtcf_examples/MujocoSystem": "rtcf_examples._mujoco_system:MujocoSystem",
+    # shipped with rtcf, imported only when a description names it (needs rtcf[canopen])
+    "rtcf_canopen/Cia402System": "rtcf_canopen:Cia402System",
 }
 
 
