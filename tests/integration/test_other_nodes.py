@@ -84,11 +84,18 @@ def test_an_early_exit_is_one_line_and_ends_the_loop_only_when_required(
     nodes = OtherNodes([node("q", "quits", 5), node("r", "runs", 6)], ParameterStore(),
                        say=said.append, environ=env, on_shutdown=shutdown.set)
     nodes.start()
-    assert not shutdown.wait(0.5)
+
+    def reported() -> bool:
+        return any(line.startswith("b.launch.xml:5: node /q (shells/quits, pid ")
+                   and "exited with code 3" in line and line.endswith("; the loop goes on")
+                   for line in said)
+
+    deadline = time.monotonic() + 10.0  # its exit is noticed, however loaded the machine
+    while not reported() and time.monotonic() < deadline:
+        time.sleep(0.05)
+    assert reported(), said
+    assert not shutdown.is_set()  # not required: the loop goes on
     nodes.stop()
-    assert any(line.startswith("b.launch.xml:5: node /q (shells/quits, pid ")
-               and "exited with code 3" in line and line.endswith("; the loop goes on")
-               for line in said), said
     assert nodes.shutdown_by is None
 
     said.clear()
