@@ -4,6 +4,7 @@ run, and stopping them (shared by the process tests of every folder; no middlewa
 import os
 import re
 import select
+import shutil
 import signal
 import subprocess
 import sys
@@ -132,3 +133,24 @@ def wait_for_count(proc, text, count, timeout=30.0):
     return _wait_until(
         proc, lambda s: s if s.count(text) >= count else "", f"{count} x {text!r}", timeout
     )
+
+
+NETWORK_NAMESPACE = "root, unshare and ip (a network namespace)"
+
+
+def can_make_network_namespace():
+    """Whether this process can make a network namespace (run_in_network_namespace)."""
+    return os.geteuid() == 0 and shutil.which("unshare") is not None \
+        and shutil.which("ip") is not None
+
+
+def run_in_network_namespace(script, env, timeout=60.0):
+    """``sh -c SCRIPT`` in a network namespace of its own (``unshare --net``), lo up first
+    with a route for multicast on it: python-can's udp_multicast bus (the simulated CAN
+    drives) and DDS stay inside it, never on the machine's own interfaces. The script
+    starts under ``set -e``; returns its stdout and stderr together."""
+    preamble = "set -e\nip link set lo up\nip route add 224.0.0.0/4 dev lo\n"
+    proc = subprocess.run(["unshare", "--net", "sh", "-c", preamble + script],
+                          capture_output=True, text=True, timeout=timeout, env=env,
+                          stdin=subprocess.DEVNULL)
+    return proc.stdout + proc.stderr

@@ -7,23 +7,23 @@ answering; a drive absent at start."""
 
 from __future__ import annotations
 
-import os
-import shutil
-import subprocess
 import sys
 import textwrap
 from pathlib import Path
 
 import pytest
 
-from .._proc import env_with
+from .._proc import (
+    NETWORK_NAMESPACE,
+    can_make_network_namespace,
+    env_with,
+    run_in_network_namespace,
+)
 from .conftest import FIXTURES
 
 pytestmark = [
     pytest.mark.integration,
-    pytest.mark.skipif(os.geteuid() != 0 or shutil.which("unshare") is None
-                       or shutil.which("ip") is None,
-                       reason="needs root, unshare and ip for a network namespace"),
+    pytest.mark.skipif(not can_make_network_namespace(), reason=f"needs {NETWORK_NAMESPACE}"),
 ]
 pytest.importorskip("canopen")
 pytest.importorskip("msgpack")
@@ -75,9 +75,6 @@ def _run(tmp_path: Path, sim_args: str, *, second: int = 3, max_stale: int = 100
     (tmp_path / "robot.urdf").write_text(URDF.format(second=second, max_stale=max_stale))
     (tmp_path / "run.launch.xml").write_text(LAUNCH)
     script = textwrap.dedent(f"""\
-        set -e
-        ip link set lo up
-        ip route add 224.0.0.0/4 dev lo
         {sys.executable} -m rtcf_canopen.sim_drive --priority 60 --duration {duration + 6} \\
             {sim_args} > {tmp_path}/sim.log 2>&1 &
         sleep 0.5
@@ -88,10 +85,7 @@ def _run(tmp_path: Path, sim_args: str, *, second: int = 3, max_stale: int = 100
         wait
         cat {tmp_path}/sim.log
         """)
-    proc = subprocess.run(["unshare", "--net", "sh", "-c", script], capture_output=True,
-                          text=True, timeout=60, env=env_with(FIXTURES),
-                          stdin=subprocess.DEVNULL)
-    out = proc.stdout + proc.stderr
+    out = run_in_network_namespace(script, env_with(FIXTURES))
     code = int(out.split("rtcf exited ")[1].split()[0])
     return code, out
 
