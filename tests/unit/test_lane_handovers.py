@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import gc
 import sys
+import threading
 import tracemalloc
 from array import array
 from collections.abc import Callable, Iterator
@@ -18,10 +19,11 @@ import pytest
 
 from rtcf._core import _interpreted
 from rtcf._core._executor import StopFlag
-from rtcf._core._lanes import LET_IN, LET_OUT, RECV, SEND, Lane, Step
+from rtcf._core._lanes import LET_IN, LET_OUT, RECV, SEND, TAKE, Lane, Step
 from rtcf._runtime import _lanes
 from rtcf._runtime._lanes import (
     L_LAST,
+    L_TAKEN,
     W_FIRST,
     W_ORIGIN_NS,
     W_STOP_AT,
@@ -212,3 +214,78 @@ def test_no_reference_or_memory_is_leaked_by_handovers(m: ModuleType) -> None:
         gc.collect()
         assert (sys.getrefcount(value), *map(sys.getrefcount, slots)) == before
         assert grown < 64 * 1024
+
+
+def test_a_let_lanes_first_take_is_not_lost_to_a_main_lane_run_ahead(
+    m: ModuleType,
+) -> None:
+    # A fresh segment on a simulated clock: lane ``let`` (every 4, phase 0) takes /x as
+    # main's iteration i - 1 left it. Main may not run past the let lane's release 0
+    # before it took its inputs: it waits for it after iteration 0. Before, the let
+    # lane said which release it had taken only after the run began, and the fresh
+    # segment's 0 let main run 0-3 at once, overwriting entry 3 before release 0 read
+    # it: its take of iteration -1 (nothing yet) counted the value lost.
+    lanes = {"main": Lane("main", ()), "let": Lane("let", (), 4, 0)}
+    lay = layout(lanes, {"/x": ("main", 8)})
+    seg = Segment.create(lay.size, "handover-test")
+    init_words(seg.buf, lay)
+    words = seg.buf.cast("q")
+    main = LaneLink(seg.buf, lay, "main", simulated=True, period_ns=1_000_000)
+    let = LaneLink(seg.buf, lay, "let", simulated=True, period_ns=1_000_000)
+    for link in (main, let):
+        link.bound(m.LoopState(1000.0), StopFlag(array("q", [0])), lambda: 0)
+    out = m.OutputPort("/p", "out", float, main.state)
+    out.topic = "/x"
+    stub = m.OutputPort("/r", "in", float)  # the let lane's readers' slot
+    stub.topic = "/x"
+    send = main.bind(Step(SEND, "/x"), out)
+    take = let.bind(Step(TAKE, "/x", True, "main"), stub)
+    go = threading.Event()
+    failures: list[BaseException] = []
+
+    def let_lane() -> None:  # begins, is held where the run has begun, then release 0
+        try:
+            let.begin(1, 0, None, lambda *_: go.wait(10))
+            let.state.iteration = 0
+            let.feeder()
+            take()
+            let.after()
+        except BaseException as exc:  # the test reports it
+            failures.append(exc)
+
+    def main_lane() -> None:
+        try:
+            for i in range(5):
+                main.state.iteration = i
+                main.feeder()
+                out.write(float(i))
+                send()
+                main.after()
+        except BaseException as exc:
+            failures.append(exc)
+
+    other = threading.Thread(target=let_lane, daemon=True)
+    runner = threading.Thread(target=main_lane, daemon=True)
+    other.start()
+    try:
+        main.begin(1, 0, None, lambda *_: None, 5)  # every lane ready: the run begins
+        # the let lane is ready, its release 0 not run: main must wait after iteration 0
+        taken = words[let.base + L_TAKEN]
+        runner.start()
+        runner.join(0.2)
+        waited = runner.is_alive()
+    finally:
+        go.set()
+        other.join(5)
+        if runner.ident is not None:
+            runner.join(5)
+    try:
+        assert not other.is_alive() and not runner.is_alive() and failures == []
+        assert let.counts() == {}
+        assert (stub._slot.value, stub._slot.seq) == (None, 0)  # nothing before iteration 0
+        assert taken < 0 and waited, "main ran ahead of the let lane's first release"
+    finally:
+        for link in (main, let):
+            link.release()
+        words.release()
+        seg.close()

@@ -264,6 +264,12 @@ class LaneLink:
                     h()
         self.decision.clear()
         words[base + L_LAST] = state.iteration
+        # said before it says ready, like L_LAST: the main lane starts the run once every
+        # lane is ready, and a simulated clock's barrier reads this word from its first
+        # iteration on; set only after the start (below) it was a fresh segment's 0
+        # there, "release 0 taken", and the main lane ran that window ahead, over the
+        # entries the LET lane's first take was still to read (counted lost)
+        words[base + L_TAKEN] = state.iteration
         words[base + L_NOW] = self.now() if self.simulated else 0
         if FENCED:
             release_fence()
