@@ -84,11 +84,12 @@ def test_params_files_remaps_and_names_as_the_ros2_tools_see_them(ros_node, tmp_
                "-r", "out:=/ros/arm_out", "-p", "offset:=1")
     wait_for(la, "loaded into /arm/arm_runner")
 
-    # ros2 node list: each under its name and namespace, nothing else of rtcf's
-    assert spin_until(ros_node, lambda: {("arm_runner", "/arm"), ("tuned", "/arm")}
-                      <= nodes(ros_node), timeout=20), nodes(ros_node)
-    assert {n for n in nodes(ros_node) if n[1] != "/"} == {("arm_runner", "/arm"),
-                                                          ("tuned", "/arm")}
+    # ros2 node list: each under its name and namespace, and the controller manager's
+    # parameters node (where the Jazzy spawner sets <name>.type), nothing else of rtcf's
+    expected = {("arm_runner", "/arm"), ("tuned", "/arm"), ("controller_manager", "/arm")}
+    assert spin_until(ros_node, lambda: expected <= nodes(ros_node), timeout=20), \
+        nodes(ros_node)
+    assert {n for n in nodes(ros_node) if n[1] != "/"} == expected
     # the runner's settings came from the file, the wildcard and -p
     data = introspect(ros_node, "/arm/arm_runner")
     assert (data["runner"], data["frequency"], data["mode"]) == ("/arm/arm_runner", 250.0,
@@ -141,7 +142,9 @@ def test_use_sim_time_makes_an_rt_runners_loop_follow_clock(ros_node, tmp_path):
     assert iterations[-1] == 5  # /clock stopped: so did the loop
 
 
-SUM_TEST_NODES = {("rt_runner", "/rtcf"), ("sum1", "/rtcf"), ("sum2", "/rtcf")}
+# and the controller manager's parameters node, as ros2_control's graph has it
+SUM_TEST_NODES = {("rt_runner", "/rtcf"), ("sum1", "/rtcf"), ("sum2", "/rtcf"),
+                  ("controller_manager", "/rtcf")}
 
 
 def test_rtcf_launch_nodes_are_listed_under_their_names_and_namespaces(ros_node, tmp_path):
