@@ -10,13 +10,13 @@ ROOT = Path(__file__).resolve().parents[1]
 DOCS = ROOT / "docs" / "performance.md"
 
 
-def run_quick(name):
-    """``benchmarks/NAME.py --quick``: its completed process and what it wrote to
+def run_quick(name, *args):
+    """``benchmarks/NAME.py --quick ARGS``: its completed process and what it wrote to
     results/NAME-quick.json (None if it failed). --quick must leave the recorded results
     in docs/performance.md alone: asserted."""
     docs = DOCS.read_text()
     result = subprocess.run(
-        [sys.executable, str(ROOT / "benchmarks" / f"{name}.py"), "--quick"],
+        [sys.executable, str(ROOT / "benchmarks" / f"{name}.py"), "--quick", *args],
         capture_output=True,
         text=True,
         cwd=ROOT,

@@ -57,7 +57,11 @@ def test_soak_windows_split_the_rows_exactly_at_window_boundaries():
 
 def test_soak_quick_accounts_for_every_record_message_and_overrun():
     assert os.environ["ROS_DOMAIN_ID"] == conftest.DOMAIN
-    result, data = run_quick("soak")  # and --quick leaves the recorded results alone
+    # at 1 kHz: the counting subscriber (an rclpy process) took 79 % of a core at 2 kHz on
+    # a slow shared machine and fell behind its 2 s of DDS history, which DDS overwrites
+    # without a word; the hour's soak (benchmarks/soak.py) runs at 2 kHz
+    result, data = run_quick("soak", "--frequency", "1000")  # and --quick leaves the
+    # recorded results alone
     assert result.returncode == 0, result.stdout + result.stderr[-3000:]
     assert data["conditions"]["ros_domain_id"] == conftest.DOMAIN
     iterations = data["conditions"]["iterations_planned"]
