@@ -156,17 +156,8 @@ class HardwareComponent:
         if state != ACTIVE and state != INACTIVE:
             self.last_read_time = time
             return _OK
-        try:
-            value = self._read(time, period)
-        except Exception as exc:
-            self.logger.error(
-                "Exception of type : %s thrown during read of the component '%s': %s",
-                type(exc).__name__, self.name, exc)
-            value = _ERROR
+        result = self._called(self._read, "read", time, period)
         self.last_read_time = time
-        result = _OK if value is None or value is _OK else (return_result(value) or _ERROR)
-        if result is _ERROR:
-            self.error()
         return result
 
     def write(self, time: float, period: float) -> ReturnType:
@@ -178,14 +169,21 @@ class HardwareComponent:
             if self.state != INACTIVE:
                 self.last_write_time = time
             return _OK
+        result = self._called(self._write, "write", time, period)
+        self.last_write_time = time
+        return result
+
+    def _called(self, call: Callable[[float, float], object], what: str, time: float,
+                period: float) -> ReturnType:
+        """The plugin's read or write and what it returned (None: OK; raised: ERROR,
+        logged in ros2_control's words); an ERROR goes through ``error``."""
         try:
-            value = self._write(time, period)
+            value = call(time, period)
         except Exception as exc:
             self.logger.error(
-                "Exception of type : %s thrown during write of the component '%s': %s",
-                type(exc).__name__, self.name, exc)
+                "Exception of type : %s thrown during %s of the component '%s': %s",
+                type(exc).__name__, what, self.name, exc)
             value = _ERROR
-        self.last_write_time = time
         result = _OK if value is None or value is _OK else (return_result(value) or _ERROR)
         if result is _ERROR:
             self.error()
