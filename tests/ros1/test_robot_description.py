@@ -5,12 +5,23 @@ textfile|command>``), and runs the description's hardware in its loop."""
 from pathlib import Path
 
 import pytest
+import rosgraph
 
 from .._proc import wait_for
 from ._launch import end, start
 from .conftest import PORT
 
 pytestmark = pytest.mark.integration
+
+
+@pytest.fixture(autouse=True)
+def _no_description_left(roscore):
+    # roslaunch leaves a launch file's <param>s on the master when it ends: a broken
+    # description left there would reach every later runner of the session
+    yield
+    master = rosgraph.Master("/test_robot_description")
+    if master.hasParam("/robot_description"):
+        master.deleteParam("/robot_description")
 
 URDF = Path(__file__).parents[1] / "ros2" / "controllers" / "fixtures" / "arm_gripper.urdf"
 
