@@ -11,7 +11,9 @@ position (no jump; :mod:`._stepping`); ``on_deactivate`` (and so a shutdown from
 quick-stops, then disables the voltage (SWITCH ON DISABLED), as ros2_canopen's halt and
 shutdown do; ``on_error`` sends the quick stop once and closes the bus. In the loop
 ``read`` drains the bus without waiting (:mod:`._exchange`), converts (:mod:`._units`)
-and checks (:mod:`._watch`); ``write`` sends the RPDOs and SYNC. No thread.
+and checks (:mod:`._watch`); ``write`` sends the RPDOs and the SYNC, both only every n-th
+cycle (``sync_period``; :mod:`._cadence`). ``on_configure`` checks the bus load
+(:mod:`._busload`). No thread.
 """
 
 from __future__ import annotations
@@ -27,6 +29,8 @@ from rtcf._core._hardware_layout import InterfaceDescription, describe  # not pu
 
 from . import _cia402
 from ._bringup import DriveError, close, open_drives
+from ._busload import BusLoad
+from ._cadence import SyncCadence
 from ._config import SystemConfig
 from ._exchange import Exchange
 from ._stepping import Stepper
@@ -64,8 +68,6 @@ class Cia402System(rtcf.SystemInterface):
     # ------------------------------------------------------------------ lifecycle
 
     def on_configure(self, previous_state: Any) -> CallbackReturn:
-        self._sync_every = 0  # SYNC every n-th write: n from the first write's period
-        self._writes = 0
         try:
             self.network, layouts = open_drives(self.config)
         except DriveError as exc:
@@ -76,6 +78,10 @@ class Cia402System(rtcf.SystemInterface):
             ex = self.exchange = Exchange(self.network.bus, layouts)
         except ValueError as exc:  # drives mapped unlike each other
             self.logger.error("hardware '%s': on bus %s, %s", self.name, self.bus_name, exc)
+            self._close()
+            return CallbackReturn.ERROR
+        self.sync = SyncCadence(self.logger, self.name, self.config, BusLoad.of(layouts))
+        if not self.sync.at_configure(self.info.rw_rate):
             self._close()
             return CallbackReturn.ERROR
         if self.config.bus.filters_in_kernel:  # the loop then sees its drives' frames only
@@ -187,21 +193,24 @@ class Cia402System(rtcf.SystemInterface):
             return _ERROR
         if not active:
             # write does not run while inactive: keep the drives answering (state only)
-            ex.send_rpdos()
-            ex.send_sync()
+            due = self.sync.tick(period)
+            if due:
+                if due < 0:
+                    return _ERROR
+                ex.send_rpdos()
+                ex.send_sync()
         return _OK
 
     def write(self, time: float, period: float) -> ReturnType:
         ex = self.exchange
         if ex is None:
             return _ERROR
-        self.units.to_targets()
-        ex.send_rpdos()
-        self._writes += 1
-        if not self._sync_every:
-            sync = self.config.sync_period_us * 1e-6
-            self._sync_every = max(1, round(sync / period)) if sync > 0 and period > 0 else 1
-        if self._writes % self._sync_every == 0:
+        self.units.to_targets()  # every write: the RPDO sent with the SYNC has the newest
+        due = self.sync.tick(period)
+        if due:
+            if due < 0:
+                return _ERROR
+            ex.send_rpdos()  # only with the SYNC: the drives act on them at the SYNC
             ex.send_sync()
         return _OK
 
