@@ -13,6 +13,7 @@ import pytest
 
 import rtcf
 from rtcf._core._clock import SimClock
+from rtcf._core._faults import FailurePolicy
 from rtcf._core._runner import ComponentSpec, Runner
 from rtcf._core._settings import RunnerSettings
 
@@ -226,6 +227,49 @@ def test_a_hardware_failure_deactivates_the_preceding_controller_first() -> None
     r.hardware.feeder()
     assert said[0] == "/z_base" and set(said[1:]) == {"/wheel_left", "/wheel_right"}
     assert [r.lifecycle_state(n) for n in ("/z_base", "/wheel_left")] == ["inactive", "inactive"]
+
+
+class FailingWheel(Wheel):
+    """A wheel whose update raises at iteration 2 (its encoder lost, say)."""
+
+    def update(self) -> None:
+        if self.iteration == 2:
+            raise RuntimeError("encoder lost")
+        super().update()
+
+
+class CountingBase(Base):
+    def update(self) -> None:
+        self.ran = [*getattr(self, "ran", []), self.iteration]
+        super().update()
+
+
+def test_a_fault_that_takes_a_chained_controller_out_takes_its_chain_with_it() -> None:
+    """on_error: deactivate of a chained controller: the controller that commands its
+    references goes out in the same iteration (and what it commands: the other wheel),
+    said in one line naming the chain; none is left writing references nobody reads."""
+    got: list[str] = []
+    r = runner(log_sink=lambda rec: got.append(rec.format()))
+    r.load(ComponentSpec("wheel_left", cls=FailingWheel,
+                         policy=FailurePolicy(on_error="deactivate")))
+    r.load(ComponentSpec("wheel_right", cls=Wheel, params={"wheel": "right_wheel_joint"}))
+    r.load(ComponentSpec("z_base", cls=CountingBase))
+    r.run(5)
+    r.drain_logs()
+    assert [r.lifecycle_state(n) for n in ("/z_base", "/wheel_left", "/wheel_right")] == [
+        "inactive", "inactive", "inactive"]
+    assert r.components["/z_base"].ran == [0, 1, 2]  # not one iteration more
+    assert r.hardware.claimed_interfaces("/z_base") == []
+    [line] = [t for t in got if "chained: " in t]
+    assert line.endswith(
+        "chained: /z_base -> /wheel_left; taken out with it: /z_base, /wheel_right (no "
+        "controller is left writing reference interfaces nobody reads); activate them again "
+        "(switch_controller) once the fault is cleared"), line
+    [fault] = r.faults
+    assert set(fault.taken_out) == {"/wheel_left", "/z_base", "/wheel_right"}
+    # activated again, chained first, it runs again
+    for name in ("/wheel_left", "/wheel_right", "/z_base"):
+        assert r.change_state(name, "activate").ok, name
 
 
 @pytest.mark.parametrize("keys", [[], ["velocity"], ["a/velocity", "a/velocity"]])

@@ -12,6 +12,7 @@ from __future__ import annotations
 
 from collections.abc import Callable, Sequence
 
+from ._chaining import chained_first
 from ._command_limits import NonFiniteCommand
 from ._component import overrides
 from ._components import Components
@@ -175,7 +176,10 @@ class Containment:
         if fallback in loaded and loaded[fallback].state == ACTIVE:
             self._transitions.change(fallback, "deactivate")
         order = self._topology.graph.order
-        for n in sorted(self._deadline_taken.pop(name, [name]), key=order.index):
+        back = sorted(self._deadline_taken.pop(name, [name]), key=order.index)
+        if self._transitions.hardware is not None:  # chained controllers before theirs
+            back = chained_first(back, {n: loaded[n].component for n in back if n in loaded})
+        for n in back:
             if n in loaded and loaded[n].state == INACTIVE:
                 loaded[n].autostart = True
                 self._transitions.change(n, "activate")
@@ -196,12 +200,13 @@ class Containment:
             fallback = ""  # not ready to take over (failed itself, or unconfigured)
         # with a fallback, what reads the failed component's outputs goes on
         affected = [name] if fallback else downstream(name, edges)
+        affected += self._chain_before(name, affected, edges, fallback)
         # (another lane's components take their inputs as they stand: the values stop)
         victims = [
             n for n in affected if n == name or (n in loaded and loaded[n].state == ACTIVE)
         ]
         taken = []
-        for n in victims:
+        for n in sorted(victims, key=order.index):  # (preceding controllers first)
             entry = loaded[n]
             entry.autostart = False
             if entry.state == ACTIVE:
@@ -224,6 +229,41 @@ class Containment:
         else:
             self._notices.log(LogLevel.WARNING, name, error)
         return fallback, taken
+
+    def _chain_before(
+        self, name: str, affected: list[str], edges: list[tuple[str, str]], fallback: str
+    ) -> list[str]:
+        """What goes out with ``affected`` because it is chained: the active controllers
+        that command its reference interfaces (ros2_control's preceding controllers,
+        transitively) and what reads their outputs, the other controllers they command
+        included, so that none is left writing references nobody reads. Said in one line
+        naming the chain."""
+        hardware = self._transitions.hardware
+        if hardware is None:  # no robot description: no chaining
+            return []
+        preceding: list[str] = []
+        out = set(affected)
+        queue = list(affected)
+        while queue:
+            for before in hardware.preceding(queue.pop(0)):
+                if before in preceding:
+                    continue
+                preceding.append(before)
+                for n in downstream(before, edges):
+                    if n not in out and n != fallback:
+                        out.add(n)
+                        queue.append(n)
+        if not preceding:
+            return []
+        order = self._topology.graph.order
+        more = sorted(out - set(affected), key=order.index)
+        chain = sorted([*preceding, name], key=order.index)
+        self._notices.log(
+            LogLevel.WARNING, name,
+            f"chained: {' -> '.join(chain)}; taken out with it: {', '.join(more)} (no "
+            "controller is left writing reference interfaces nobody reads); activate them "
+            "again (switch_controller) once the fault is cleared")
+        return more
 
     def _record(self, fault: Fault) -> None:
         self.faults.append(fault)

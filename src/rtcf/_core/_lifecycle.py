@@ -93,6 +93,9 @@ REQUESTS: dict[int, tuple[str, int, int]] = {
 
 SUCCESS, FAILURE, ERROR = "success", "failure", "error"
 REFUSED = "refused"  # not a transition at all: unknown, or not available from the state
+# the answer to a transition of a STRICT switch that failed elsewhere: not made, or made
+# and undone in the same iteration (rtcf._core._switching); ``end`` is where it is now
+UNDONE = "undone"
 RESULT_LABELS = {
     SUCCESS: "transition_success",
     FAILURE: "transition_failure",
@@ -200,7 +203,7 @@ class TransitionOutcome:
 
     def steps(self) -> list[TransitionDescription]:
         """The state changes, one per transition_event a ROS 2 lifecycle node publishes."""
-        if self.result == REFUSED:
+        if self.result in (REFUSED, UNDONE):  # (an answer, never told as a change)
             return []
         label, start, via = REQUESTS[self.transition]
         steps = [TransitionDescription(self.transition, label, start, via)]
@@ -217,8 +220,8 @@ class TransitionOutcome:
 
     def describe(self) -> str:
         """One line for a log: what was asked, where it ended, and why if it failed."""
-        if self.result == REFUSED:
-            return f"refused: {self.reason}"
+        if self.result in (REFUSED, UNDONE):
+            return f"{self.result}: {self.reason}"
         what = self.label or f"transition {self.transition}"
         line = f"{what}: {STATE_LABELS[self.start]} -> {STATE_LABELS[self.end]}"
         if self.result != SUCCESS:
@@ -250,7 +253,7 @@ OUTCOME_RING_RECORDS = 64
 # request (0: a change nobody asked for), transition, start, end, result, error result,
 # then the lengths of the component's name and of the reason
 _OUTCOME = struct.Struct("<qBBBBBHH")
-_RESULT_CODES = {SUCCESS: 1, FAILURE: 2, ERROR: 3, REFUSED: 4, "": 0}
+_RESULT_CODES = {SUCCESS: 1, FAILURE: 2, ERROR: 3, REFUSED: 4, UNDONE: 5, "": 0}
 _CODE_RESULTS = {v: k for k, v in _RESULT_CODES.items()}
 
 

@@ -33,7 +33,7 @@ from ._errors import ComponentError, RtcfError
 from ._executor import StopFlag
 from ._faults import Fault, SafeStopOutcome
 from ._graph import Graph, GraphNode
-from ._hardware_loop import HARDWARE_PREFIX, HardwareLoop
+from ._hardware_loop import HardwareLoop
 from ._lanes import Lane, Member, Step
 from ._lifecycle import TransitionOutcome
 from ._log import LogLevel, LogRecord, LogRing, PythonLoggingSink, RecordSink
@@ -45,6 +45,7 @@ from ._ports import InputPort, OutputPort, Slot
 from ._rings import Ring
 from ._schedule import BindHandover, Schedule
 from ._settings import RunnerSettings
+from ._switching import Switching
 from ._topology import Topology
 from ._transitions import Transitions
 from ._tunables import LIFECYCLE, LOG_LEVEL, PARAMETER
@@ -111,6 +112,7 @@ class Runner:
             self.state,
             self._notices,
         )
+        self._switching = Switching(name, self._transitions, self.hardware, self._notices)
         # the totals of the hardware's command limits (a worker shares their cells)
         self.command_counters = self._schedule.commands
         # inputs with a deadline, watched at each iteration boundary (docs/runner.md)
@@ -214,10 +216,8 @@ class Runner:
 
         A lifecycle transition (``name`` the transition) returns its outcome.
         """
-        if kind == LIFECYCLE:
-            if component.startswith(HARDWARE_PREFIX) and self.hardware is not None:
-                return self.hardware.transition(component, name)  # a hardware's state
-            return self._transitions.change(component, name)
+        if kind == LIFECYCLE:  # a component's, or a hardware's state
+            return self._switching.change(component, name)
         # (applied here rather than by a call into Components: it runs in the loop)
         entry = self._components.entries.get(component)
         if entry is None:  # unloaded after the supervisor sent it: nothing to change
@@ -275,6 +275,11 @@ class Runner:
         at once. The hooks it runs may use ``self.log.nonrt``.
         """
         return self._transitions.change(name, transition)
+
+    def switch(self, transitions: Sequence[tuple[str, int | str]], strict: bool = False
+               ) -> list[TransitionOutcome]:
+        """Transitions together; ``strict``: all or none, now (:mod:`._switching`)."""
+        return self._switching.switch(transitions, strict)
 
     @property
     def transition_listeners(self) -> list[Callable[[str, TransitionOutcome], None]]:

@@ -37,6 +37,9 @@ TYPES: dict[str, type] = {"bool": bool, "int": int, "float": float, "str": str}
 PARAMETER = 1
 LOG_LEVEL = 2
 LIFECYCLE = 3  # name: the transition (label or id); value: the request's number
+# a STRICT switch (all or nothing in one iteration): value: how many LIFECYCLE records
+# follow it, in the same ring commit (rtcf._runtime._worker_updates)
+BATCH = 4
 
 UPDATE_RECORD_SIZE = 1024  # bytes of one record of the update ring (a long str must fit)
 UPDATE_RING_RECORDS = 64
@@ -167,7 +170,7 @@ def max_text_bytes(component: str, name: str) -> int:
 
 def encode_update(kind: int, component: str, name: str, value: Any) -> bytes:
     """One update record: a tunable's new value, a component's log level, a transition."""
-    if kind in (LOG_LEVEL, LIFECYCLE):
+    if kind in (LOG_LEVEL, LIFECYCLE, BATCH):
         vtype, payload = "int", struct.pack("<q", int(value))
     else:
         vtype = next(k for k, t in TYPES.items() if type(value) is t)

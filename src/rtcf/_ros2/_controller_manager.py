@@ -18,9 +18,10 @@ those tools see and switch rtcf's controllers:
   point of its loop. The checks are the controller manager's (Jazzy): an
   unknown name, activating one that is not inactive, deactivating one that is not
   active. ``STRICT`` refuses the whole request on any of them, and a transition that
-  fails undoes those made (in one iteration again: the loop ran one or more with the
-  switch half made); ``BEST_EFFORT`` (also for 0, ``AUTO`` and
-  ``FORCE_AUTO``, as ros2_control falls back) leaves the offending ones out and goes on.
+  fails makes the worker undo those it made before the iteration's first update (all
+  or nothing in that iteration; across lanes, each worker's share); ``BEST_EFFORT``
+  (also for 0, ``AUTO`` and ``FORCE_AUTO``, as ros2_control falls back) leaves the
+  offending ones out and goes on.
   Then, whatever the strictness, the claims (``add_output(..., claim=True)``): a
   controller to activate may not claim a command topic that a controller staying
   active holds, nor one another controller to activate claims; ``list_controllers``
@@ -36,6 +37,7 @@ from typing import Any
 
 from .._core._errors import RtcfError
 from .._core._lane_names import MAIN_LANE
+from .._core._lifecycle import UNDONE
 from .._core._names import expand, namespace_of
 from .._runtime._supervisor import WorkerRunner
 from ._controller_chains import fill, switch_order
@@ -200,18 +202,27 @@ class ControllerManager:
         timeout: float | None,
     ) -> tuple[bool, str]:
         """Deactivations, then activations, all at the start of one iteration of each
-        worker; STRICT: a failure undoes those made, again all in one iteration."""
+        worker; STRICT: all or nothing, a failure undone by the worker in that iteration."""
         steps = [(n, "deactivate") for n in to_deactivate] + [(n, "activate") for n in to_activate]
         outcomes = self._runner.change_states(
-            [(self._full(name), transition) for name, transition in steps], timeout)
+            [(self._full(name), transition) for name, transition in steps], timeout, strict)
         done = [step for step, outcome in zip(steps, outcomes, strict=True) if outcome.ok]
         failed = [f"Could not {transition} controller '{name}': {o.reason or o.result}"
-                  for (name, transition), o in zip(steps, outcomes, strict=True) if not o.ok]
+                  for (name, transition), o in zip(steps, outcomes, strict=True)
+                  if not o.ok and o.result != UNDONE]
         if failed and strict:
+            # each worker undid its own share (rtcf._core._switching); what one could not
+            # undo is said
+            failed += [f"Could not {transition} controller '{name}' back: {o.reason}"
+                       for (name, transition), o in zip(steps, outcomes, strict=True)
+                       if o.result == UNDONE and o.start != o.end]
+            # the share of another lane's worker that had nothing fail was made whole: it
+            # is undone now, an iteration or more later (a switch across lanes)
             undo = {"activate": "deactivate", "deactivate": "activate"}
             back = [(name, undo[made]) for name, made in reversed(done)]
             undone = self._runner.change_states(
-                [(self._full(name), transition) for name, transition in back], timeout)
+                [(self._full(name), transition) for name, transition in back], timeout
+            ) if back else []
             failed += [f"Could not {transition} controller '{name}' back: {o.reason or o.result}"
                        for (name, transition), o in zip(back, undone, strict=True) if not o.ok]
             return False, "\n".join(failed) + "; the switch was undone ('STRICT' switch)"

@@ -387,11 +387,12 @@ class WorkerRunner:
         return self.change_states([(component, transition)], timeout)[0]
 
     def change_states(
-        self, transitions: Sequence[tuple[str, int | str]], timeout: float | None = None
+        self, transitions: Sequence[tuple[str, int | str]], timeout: float | None = None,
+        strict: bool = False,
     ) -> list[TransitionOutcome]:
         """Several transitions at once (a controller manager's switch): each worker
-        applies its components' at the start of one iteration, in the order given; the
-        outcomes come in that order (as :meth:`change_state`'s)."""
+        applies its components' at the start of one iteration, in the order given
+        (``strict``: all or none, rtcf._core._switching); the outcomes come in that order."""
         self.admission.refuse_if_locked("lifecycle transitions")
         asked = []
         for component, transition in transitions:
@@ -399,7 +400,7 @@ class WorkerRunner:
             full = str(owner._loaded.find(component)["name"])
             asked.append((owner._updates, owner._hand_over, full, transition))
         return change_states(asked, 10.0 + 3.0 / self.settings.frequency
-                             if timeout is None else timeout)
+                             if timeout is None else timeout, strict)
 
     def _hand_over(self) -> None:
         """A transition waits: when no loop reads the record, the main thread hands it

@@ -21,7 +21,9 @@ from .._core._errors import RtcfError
 from .._core._lifecycle import (
     OUTCOME_RECORD_SIZE,
     OUTCOME_RING_RECORDS,
+    REFUSED,
     STATE_LABELS,
+    UNDONE,
     UNKNOWN,
     TransitionOutcome,
     decode_outcome,
@@ -30,6 +32,7 @@ from .._core._lifecycle import (
 from .._core._log import LogLevel
 from .._core._rings import Ring
 from .._core._tunables import (
+    BATCH,
     LIFECYCLE,
     LOG_LEVEL,
     PARAMETER,
@@ -127,18 +130,20 @@ class WorkerUpdates:
 
     # -- lifecycle ----------------------------------------------------------------------
     def send_transitions(
-        self, transitions: Sequence[tuple[str, int | str]]
+        self, transitions: Sequence[tuple[str, int | str]], strict: bool = False
     ) -> list[tuple[int, PendingTransition]]:
         """Send transitions as one batch: the worker reads them all at the start of the
-        same iteration (the ring commits them at once), and applies them in this order."""
-        if len(transitions) > UPDATE_RING_RECORDS:
+        same iteration (the ring commits them at once), and applies them in this order;
+        ``strict``: all or none, undone in that iteration if one fails (a BATCH record
+        first says how many follow)."""
+        if len(transitions) + strict > UPDATE_RING_RECORDS:
             raise RtcfError(
                 f"{len(transitions)} lifecycle transitions at once: a worker takes "
-                f"{UPDATE_RING_RECORDS} at most in one iteration; ask for fewer"
+                f"{UPDATE_RING_RECORDS - strict} at most in one iteration; ask for fewer"
             )
         asked: list[tuple[int, PendingTransition]] = []
         with self.lock:
-            records = []
+            records = [encode_update(BATCH, "", "strict", len(transitions))] if strict else []
             for full, transition in transitions:
                 number = next(self._request_numbers)
                 pending = PendingTransition(full, transition)
@@ -175,18 +180,23 @@ class WorkerUpdates:
             if record is None:
                 return
             number, component, outcome = decode_outcome(record)
-            self.answer(number, outcome, component)
+            # a negative number: the answer only (a STRICT switch's: its changes came
+            # before it as news)
+            self.answer(abs(number), outcome, component, news=number >= 0)
 
-    def answer(self, number: int, outcome: TransitionOutcome, component: str = "") -> None:
+    def answer(self, number: int, outcome: TransitionOutcome, component: str = "",
+               news: bool = True) -> None:
         """An outcome: the answer to request ``number``, or (0, or a request whose caller
-        gave up waiting) a change all the same: the cache and the listeners hear of it."""
+        gave up waiting) a change all the same: the cache and the listeners hear of it
+        (unless not ``news``)."""
+        news = news and outcome.result not in (REFUSED, UNDONE)
         with self.lock:
             pending = self.pending.pop(number, None) if number else None
             if pending is not None:
                 component = pending.component
-            if outcome.result != "refused":
+            if news:
                 self.loaded.set_lifecycle(component, STATE_LABELS[outcome.end])
-        if outcome.result != "refused" and component:
+        if news and component:
             for listener in self.listeners:
                 listener(component, outcome)
         if pending is not None:
@@ -209,19 +219,20 @@ class WorkerUpdates:
 
 def change_states(
     transitions: Sequence[tuple[WorkerUpdates, Callable[[], None], str, int | str]],
-    timeout: float,
+    timeout: float, strict: bool = False,
 ) -> list[TransitionOutcome]:
     """Transitions of components in one or several workers (``(updates, hand_over,
     component, transition)`` each), applied together: each worker gets its share as one
     batch, which its loop applies at the start of its next iteration, in the order
-    given; then wait for every outcome (in the order given) for ``timeout`` at most."""
+    given (``strict``: all or none, in that iteration); then wait for every outcome (in
+    the order given) for ``timeout`` at most."""
     shares: dict[int, list[int]] = {}  # id(updates) -> the transitions' indices
     for k, (updates, *_) in enumerate(transitions):
         shares.setdefault(id(updates), []).append(k)
     asked: dict[int, tuple[WorkerUpdates, int, PendingTransition]] = {}
     for indices in shares.values():
         updates = transitions[indices[0]][0]
-        sent = updates.send_transitions([transitions[k][2:] for k in indices])
+        sent = updates.send_transitions([transitions[k][2:] for k in indices], strict)
         for k, (number, pending) in zip(indices, sent, strict=True):
             asked[k] = (updates, number, pending)
     for indices in shares.values():

@@ -33,14 +33,13 @@ from .._core._executor import ABORT, StopFlag
 from .._core._hotpath import HeartbeatWatch
 from .._core._lane_names import MAIN_LANE
 from .._core._lanes import LET_OUT, SEND
-from .._core._lifecycle import REFUSED, encode_outcome
 from .._core._log import LogWriter
 from .._core._params import ParameterStore
 from .._core._rings import Mailbox, Ring
 from .._core._runner import ComponentSpec, Runner
 from .._core._settings import RunnerSettings
 from .._core._trace import Trace
-from .._core._tunables import LIFECYCLE, UPDATE_RECORD_SIZE, UPDATE_RING_RECORDS, UpdateReader
+from .._core._tunables import UPDATE_RECORD_SIZE, UPDATE_RING_RECORDS, UpdateReader
 from ._doorbell import Doorbell
 from ._lanes import Aborted, LaneLayout, LaneLink, value_size
 from ._port_channels import MappedPort, WorkerPorts, mapped_ports
@@ -48,6 +47,7 @@ from ._realtime import FrozenGC, apply_realtime
 from ._realtime_report import RealtimeReport
 from ._recording import RecordedTopic, WorkerRecording, recorded_topics
 from ._shm import Segment, receive_segments
+from ._worker_updates import UpdateApplier
 
 WORKER_MODULE = "rtcf._runtime._worker"  # what the supervisor runs with `python -m`
 
@@ -266,32 +266,12 @@ class Worker:
                 self._send("event", "hook", (component, hook))
 
         self.runner.hook_observer = observe
-        self.updates = UpdateReader(self._update_ring, self._apply_update)
-        self._applying = 0  # the number of the transition request being applied
-        self.runner.transition_listeners.append(self._report)
+        # applied and answered (a STRICT switch all or nothing): rtcf._runtime._worker_updates
+        self.updates = UpdateReader(
+            self._update_ring, UpdateApplier(self.runner, self._outcome_ring).apply)
         hardware = self.runner.hardware
         return {"pid": os.getpid(), "python": sys.version.split()[0],
                 "hardware": hardware.summary() if hardware is not None else []}
-
-    def _apply_update(self, kind: int, component: str, name: str, value: Any) -> None:
-        """An update record (between iterations); a lifecycle transition is answered."""
-        if kind != LIFECYCLE:
-            self._runner().apply_update(kind, component, name, value)
-            return
-        self._applying = int(value)
-        try:
-            outcome = self._runner().apply_update(kind, component, name, value)
-        finally:
-            self._applying = 0
-        if outcome is not None and outcome.result == REFUSED:  # no listener heard of it
-            self._report(component, outcome, int(value))
-
-    def _report(self, component: str, outcome: Any, number: int | None = None) -> None:
-        """Tell the supervisor of a lifecycle change: the answer to its request, or one
-        the runner made itself (a fault policy's). A full ring drops it (counted)."""
-        if self._outcome_ring is not None:
-            request = self._applying if number is None else number
-            self._outcome_ring.push(encode_outcome(request, outcome, component))
 
     def sync(self) -> None:
         """Nothing but what every command does first: apply the waiting updates."""
