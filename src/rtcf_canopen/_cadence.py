@@ -8,13 +8,13 @@ drive before it acts (bus time for nothing). The cycles in between still write t
 newest targets into the transmit buffer (:meth:`Units.to_targets`): the RPDO sent with
 the SYNC carries the newest, as the drive would have kept the newest.
 
-The loop's period is only known at the first cycle (``read`` and ``write`` are given
-it; the plugin is not told the loop's rate at configure). So the bus-load check
-(:mod:`._busload`) runs at configure when the SYNC period is known there
-(``sync_period`` given, or the ``<ros2_control rw_rate>``) and refuses the
-configuration if the bus is overloaded; it runs again at the first cycle if the SYNC
-period the loop gives differs, and then an overloaded bus makes that cycle an ERROR
-(once, before any SYNC of the loop; the hardware goes through on_error).
+The bus-load check (:mod:`._busload`) runs at configure for the SYNC period:
+``sync_period``, else the hardware's ``info.rw_rate`` (the loop's rate unless the
+``<ros2_control rw_rate>`` is slower, filled in by the resource manager as ros2_control
+does), and refuses the configuration if the bus is overloaded. It runs again at the
+first cycle if the period the loop gives there differs (a loop run at another rate than
+it was configured for), and then an overloaded bus makes that cycle an ERROR (once,
+before any SYNC of the loop; the hardware goes through on_error).
 """
 
 from __future__ import annotations

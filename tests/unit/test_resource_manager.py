@@ -278,6 +278,16 @@ def test_a_slower_rw_rate_reads_at_its_own_rate_with_its_own_period() -> None:
     assert rm.list_hardware_components()[0].rw_rate == 25
 
 
+def test_the_plugin_is_given_the_rate_it_runs_at_as_ros2_control_gives_it() -> None:
+    # rw_rate 0 (none) or above the loop's: the loop's rate, in the info on_init sees
+    # (a bus plugin plans its load from it at configure); a slower one kept as given
+    for attrs, expected in (("", 100), (' rw_rate="250"', 100), (' rw_rate="25"', 25)):
+        rm = ResourceManager.from_urdf(HEAD + scripted("hw", joint("joint1", ("position",), {
+            "position": None})).replace('type="system">', f'type="system"{attrs}>') + TAIL,
+            100)
+        assert rm.components["hw"].impl.info.rw_rate == expected, attrs
+
+
 # ----------------------------------------------------------------------- claims
 
 

@@ -33,7 +33,7 @@ from __future__ import annotations
 
 import logging
 from collections.abc import Callable, Iterable, Iterator, Mapping, Sequence
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Any, NamedTuple
 
 import numpy as np
@@ -175,6 +175,9 @@ class ResourceManager:
         rw_rate = info.rw_rate
         if rw_rate == 0 or rw_rate > self.update_rate:
             rw_rate = self.update_rate
+            # as ros2_control's resource manager: the plugin's on_init sees the rate it
+            # is read and written at (a bus plans its load from it at configure)
+            info = replace(info, rw_rate=rw_rate)
         child = getattr(self.logger, "getChild", None)  # a worker's: its log ring
         logger = child(info.name) if child is not None else logging.getLogger(
             f"{getattr(self.logger, 'name', 'rtcf')}.{info.name}")
