@@ -19,7 +19,7 @@ onnx = pytest.importorskip("onnx")
 
 from onnx import TensorProto, helper, numpy_helper  # noqa: E402
 
-from rtcf import ComponentError, ComponentSpec, ConfigurationError  # noqa: E402
+from rtcf import ComponentError, ComponentSpec, ConfigurationError, Rate  # noqa: E402
 from rtcf.testing import run_components, run_launch  # noqa: E402
 from rtcf_policy import JointPd, Policy, load_config  # noqa: E402
 
@@ -159,6 +159,93 @@ def test_unitree_field_names_are_read(tmp_path: Path) -> None:
     assert config.kps.tolist() == [100.0, 150.0] and config.action.clip == 5.0  # type: ignore[union-attr]
 
 
+# -- control_dt and trained_delay against how the policy runs ----------------------------
+
+def _timed(tmp_path: Path, fields: str) -> str:
+    """The test configuration with ``fields`` (control_dt, trained_delay, ...) added."""
+    return write_config(tmp_path, np.full((5, 1), 0.1), CONFIG + fields)
+
+
+def _policy(config: str, every: int = 1, lane: str = "", **params: Any) -> Any:
+    """Configure the Policy at 100 Hz, every ``every``, in ``lane``: its component."""
+    trace = run_components([ComponentSpec(
+        "policy", Policy, rate=Rate(every=every), lane=lane,
+        params={"config": config, **params})], 1, frequency=HZ)
+    return trace.components["/policy"]
+
+
+@pytest.mark.parametrize(("every", "lane", "fields"), [
+    (5, "slow", "control_dt: 0.05\ntrained_delay: 0.06\n"),  # LET: (5 + 1) / 100 Hz
+    (5, "", "control_dt: 0.05\ntrained_delay: 0.0\n"),  # inline in main: no delay
+    (1, "other", "control_dt: 0.01\ntrained_delay: 0\n"),  # a lock-step lane: none
+    (4, "slow", "control_decimation: 4\nsimulation_dt: 0.01\ntrained_delay: 0.05\n"),
+    # a trainer at a 25 ms physics step models (5 + 1) x 10 ms as 2 steps (rounded)
+    (5, "slow", "control_decimation: 2\nsimulation_dt: 0.025\ntrained_delay: 0.05\n"),
+])
+def test_control_dt_and_trained_delay_that_match_how_it_runs_pass(
+    tmp_path: Path, every: int, lane: str, fields: str,
+) -> None:
+    policy = _policy(_timed(tmp_path, fields), every, lane)
+    assert policy.timing.every == every and policy.timing.on_let == (lane != "" and every > 1)
+
+
+def test_a_control_dt_other_than_its_period_names_the_file_both_values_and_the_fix(
+    tmp_path: Path,
+) -> None:
+    config = _timed(tmp_path, "control_dt: 0.02\n")
+    with pytest.raises(ComponentError) as err:
+        _policy(config, 5, "slow")  # 5 / 100 Hz = 0.05 s
+    text = str(err.value)
+    assert f"policy configuration {config}: control_dt is 0.02 s" in text
+    assert "on LET in lane 'slow', every 5 at 100 Hz, a period of 0.05 s" in text
+    assert "every:=2 or the loop's frequency 250 Hz" in text
+    assert "(control_dt: 0.05)" in text and "\n" not in text
+    with pytest.raises(ComponentError, match=r"control_dt \(control_decimation 4 x "
+                       r"simulation_dt 0.005\) is 0.02 s"):
+        _policy(_timed(tmp_path, "control_decimation: 4\nsimulation_dt: 0.005\n"), 1)
+
+
+@pytest.mark.parametrize(("every", "lane", "delay", "runs"), [
+    (5, "slow", 0.05, "its action acts 5 + 1 loop periods after the state it saw: 0.06 s"),
+    (5, "", 0.06, "inline in lane 'main', every 5 at 100 Hz, where its action acts with no "
+     "delay"),
+    (5, "slow", 0.0, "on LET in lane 'slow'"),
+    (5, "slow", 0.05, "0.06 s; retrain it for the delay it runs with, or, if training "
+     "modelled 0.06 s, say so in the YAML (trained_delay: 0.06); a trainer whose physics "
+     "step could not model it finer gives its simulation_dt"),
+])
+def test_a_trained_delay_other_than_the_one_it_runs_with_is_an_error(
+    tmp_path: Path, every: int, lane: str, delay: float, runs: str,
+) -> None:
+    config = _timed(tmp_path, f"control_dt: 0.05\ntrained_delay: {delay}\n")
+    with pytest.raises(ComponentError) as err:
+        _policy(config, every, lane)
+    text = str(err.value)
+    assert f"policy configuration {config}: trained_delay is {delay:g} s" in text
+    assert runs in text and "~on_delay_mismatch:=warn runs it anyway" in text
+    assert "\n" not in text
+
+
+def test_on_delay_mismatch_warn_runs_it_with_a_warning(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture,
+) -> None:
+    config = _timed(tmp_path, "control_dt: 0.05\ntrained_delay: 0.06\n")
+    policy = _policy(config, 5, "", on_delay_mismatch="warn")  # inline: no delay
+    assert policy.timing.delay == 0.0
+    assert any("trained_delay is 0.06 s" in r.getMessage() for r in caplog.records)
+    with pytest.raises(ComponentError, match=r"~on_delay_mismatch is 'never': give error or "
+                       "warn"):
+        _policy(config, 5, "slow", on_delay_mismatch="never")
+
+
+def test_a_component_knows_its_lane_and_whether_it_runs_on_let(tmp_path: Path) -> None:
+    config = write_config(tmp_path, np.full((5, 1), 0.1))
+    assert (_policy(config, 5, "slow").lane, _policy(config, 5, "slow").on_let) == (
+        "slow", True)
+    assert (_policy(config, 5).lane, _policy(config, 5).on_let) == ("main", False)
+    assert _policy(config, 1, "other").on_let is False  # lock step
+
+
 def _tasks() -> int:
     return len(os.listdir("/proc/self/task"))
 
@@ -243,7 +330,8 @@ def _pole_rms(trace: Any) -> float:
 def test_it_balances_through_the_push_and_without_its_trained_delay_does_worse() -> None:
     pytest.importorskip("mujoco")
     let = run_launch(EXAMPLE, 4000)
-    inline = run_launch(EXAMPLE, 4000, args={"policy_lane": "main"})
+    inline = run_launch(EXAMPLE, 4000, args={"policy_lane": "main",
+                                             "on_delay_mismatch": "warn"})
     angles = np.array([p[1] for p in let.outputs["/cartpole/position"]])
     assert abs(angles[2400]) < 0.01 and abs(angles[-1]) < 0.05  # before the push; after
     assert np.max(np.abs(angles[2500:])) > 0.1  # the push did push
@@ -273,7 +361,8 @@ def test_a_policy_gone_quiet_leaves_the_pd_stage_in_its_safe_behaviour(
 @pytest.mark.parametrize("lane", ["policy", "main"])
 def test_both_launch_formats_give_the_same_run(lane: str) -> None:
     pytest.importorskip("mujoco")
-    args = {"policy_lane": lane, "silent_after_s": "0.3"}  # the deadline passes at 351
+    args = {"policy_lane": lane, "silent_after_s": "0.3",  # the deadline passes at 351
+            "on_delay_mismatch": "warn"}  # inline: not the delay it was trained with
     a = run_launch(EXAMPLE, 400, args=args)
     b = run_launch(EXAMPLE + ".xml", 400, args=args)
     assert set(a.outputs) == set(b.outputs) and "/cartpole/target" in a.outputs
