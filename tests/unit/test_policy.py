@@ -246,6 +246,89 @@ def test_a_component_knows_its_lane_and_whether_it_runs_on_let(tmp_path: Path) -
     assert _policy(config, 1, "other").on_let is False  # lock step
 
 
+# -- JointPd in the driver's joint order ----------------------------------------------
+
+PD_CONFIG = """
+model: m.onnx
+joints: [a, b, c]
+observation: [{name: x, port: position, size: 1}]
+action: {port: target, offset: [0.1, 0.2, 0.3]}
+kps: [1.0, 2.0, 3.0]
+kds: [0.5, 0.5, 0.5]
+"""
+
+
+def _driver(position: list[float], velocity: list[float], target: list[float]) -> Any:
+    from rtcf import Component
+
+    class Driver(Component):  # its arrays, and from iteration 1 the policy's target
+        def configure(self) -> None:
+            self.q = self.add_output("position", np.ndarray)
+            self.qd = self.add_output("velocity", np.ndarray)
+            self.target = self.add_output("target", np.ndarray)
+
+        def update(self) -> None:
+            self.q.write(np.array(position))
+            self.qd.write(np.array(velocity))
+            if self.iteration:
+                self.target.write(np.array(target))
+
+    return Driver
+
+
+def _pd(tmp_path: Path, **params: Any) -> Any:
+    path = tmp_path / "pd.yaml"
+    path.write_text(PD_CONFIG)
+    # the driver measures [c, x, b, a] (x: a joint the policy does not drive) and takes
+    # commands for [b, c, a]
+    driver = _driver([3.0, 9.0, 2.0, 1.0], [0.3, 9.0, 0.2, 0.1], [10.0, 20.0, 30.0])
+    return run_components([
+        ComponentSpec("driver", driver),
+        ComponentSpec("pd", JointPd, params={"config": str(path), **params}),
+    ], 2)
+
+
+def test_joint_pd_writes_in_the_drivers_joint_order_by_name(tmp_path: Path) -> None:
+    trace = _pd(tmp_path, joints=["c", "x", "b", "a"], command_joints=["b", "c", "a"])
+    pd = trace.components["/pd"]
+    assert pd.index.tolist() == [2, 0, 3] and pd.order.tolist() == [1, 2, 0]
+    effort = [e.tolist() for e in trace.outputs["/effort_command"]]
+    # b, c, a: kp (target - q) - kd qd; the default target first (action.offset)
+    assert effort[0] == pytest.approx([2.0 * (0.2 - 2.0) - 0.1, 3.0 * (0.3 - 3.0) - 0.15,
+                                       1.0 * (0.1 - 1.0) - 0.05])
+    assert effort[1] == pytest.approx([2.0 * (20.0 - 2.0) - 0.1, 3.0 * (30.0 - 3.0) - 0.15,
+                                       1.0 * (10.0 - 1.0) - 0.05])
+
+
+def test_joint_pd_maps_its_target_without_allocating(tmp_path: Path) -> None:
+    pd = _pd(tmp_path, joints=["c", "x", "b", "a"], command_joints=["b", "c", "a"]
+             ).components["/pd"]
+    first, second, peak = _traced(pd.update, 2000)
+    assert second - first < 256 and peak < 4096  # the effort it writes, freed
+
+
+@pytest.mark.parametrize(("params", "message"), [
+    ({"joints": ["c", "b"]}, r"policy joint 'a' \(.*pd.yaml\) is not among the driver's "
+     r"~joints \['c', 'b'\]"),
+    ({"joints": ["c", "x", "b", "a"]}, r"driver joint 'x' \(~joints\) is not among the "
+     r"policy's joints \['a', 'b', 'c'\] \(.*pd.yaml\): the PD stage has no target for it"),
+    ({"joints": ["c", "x", "b", "a"], "command_joints": ["b", "a"]},
+     r"policy joint 'c' \(.*\) is not among the driver's ~command_joints \['b', 'a'\]"),
+    ({"joints": ["c", "b", "a"], "command_joints": ["b", "c", "a", "d"]},
+     r"driver joint 'd' \(~command_joints\) is not among the policy's joints"),
+    ({"joints": ["c", "b", "a", "b"]}, r"joint 'b' is in ~joints twice"),
+    ({"joints": ["c", "b", "a"], "index": [0, 1, 2]}, r"give ~joints .* or ~index, not both"),
+    ({"command_joints": ["a", "b", "c"]}, r"~command_joints needs ~joints"),
+    ({"joints": "a, b, c"}, r"~joints is 'a, b, c': give a list of joint names"),
+])
+def test_joint_pd_names_an_unknown_or_missing_joint(
+    tmp_path: Path, params: dict[str, Any], message: str,
+) -> None:
+    with pytest.raises(ComponentError, match=r"component '/pd': configure\(\) failed: "
+                       + message):
+        _pd(tmp_path, **params)
+
+
 def _tasks() -> int:
     return len(os.listdir("/proc/self/task"))
 
