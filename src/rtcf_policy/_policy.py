@@ -79,7 +79,7 @@ class Policy(rtcf.Component):
         if on_mismatch not in (ERROR, WARN):
             raise rtcf.ConfigurationError(
                 f"~on_delay_mismatch is {on_mismatch!r}: give error or warn")
-        timing = Timing(self.frequency * self.every, self.every, self.on_let, self.lane)
+        timing = Timing(self.frequency * self.every, self.every, self.on_let, self.lane_name)
         problem = period_mismatch(config, timing)
         if problem:
             raise rtcf.ConfigurationError(problem)

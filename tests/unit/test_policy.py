@@ -240,9 +240,9 @@ def test_on_delay_mismatch_warn_runs_it_with_a_warning(
 
 def test_a_component_knows_its_lane_and_whether_it_runs_on_let(tmp_path: Path) -> None:
     config = write_config(tmp_path, np.full((5, 1), 0.1))
-    assert (_policy(config, 5, "slow").lane, _policy(config, 5, "slow").on_let) == (
+    assert (_policy(config, 5, "slow").lane_name, _policy(config, 5, "slow").on_let) == (
         "slow", True)
-    assert (_policy(config, 5).lane, _policy(config, 5).on_let) == ("main", False)
+    assert (_policy(config, 5).lane_name, _policy(config, 5).on_let) == ("main", False)
     assert _policy(config, 1, "other").on_let is False  # lock step
 
 

@@ -273,8 +273,10 @@ class Component:
         return self._rtcf_every
 
     @property
-    def lane(self) -> str:
-        """The lane it runs in (its launcher's ``lane``; ``"main"``: the runner's own)."""
+    def lane_name(self) -> str:
+        """The lane it runs in (its launcher's ``lane``; ``"main"``: the runner's own).
+        Not ``lane``: a component's own attribute of that name (a lane keeper's) stays
+        its own."""
         return self._rtcf_lane
 
     @property
