@@ -176,7 +176,8 @@ def main() -> int:
             "allocations": allocations(policy, calls[net]),
         }
     # (c) the loop, real time, alternating rounds
-    loops = {"large inline (main lane)": ("network:=large", "policy_lane:=main"),
+    loops = {"large inline (main lane)": ("network:=large", "policy_lane:=main",
+                                          "on_delay_mismatch:=warn"),
              "large on LET (lane policy, every 20)": ("network:=large",),
              "small on LET (as shipped)": ()}
     if args.quick:  # a smoke: the two that differ

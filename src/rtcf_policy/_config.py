@@ -76,6 +76,8 @@ class PolicyConfig:
     kds: np.ndarray | None = None
     control_dt: float | None = None  # the policy's period in training [s]
     trained_delay: float | None = None  # the action delay it was trained with [s]
+    simulation_dt: float | None = None  # the physics step it was trained at [s]
+    control_decimation: float | None = None  # control_dt = this x simulation_dt
     extra: dict[str, Any] = field(default_factory=dict)
 
     @property
@@ -152,10 +154,13 @@ def parse_config(raw: Any, path: str, model: str = "") -> PolicyConfig:
         kps=None if "kps" not in raw else _vector(raw["kps"], size, "kps", fail),
         kds=None if "kds" not in raw else _vector(raw["kds"], size, "kds", fail),
         control_dt=_optional(raw, "control_dt", fail),
-        trained_delay=_optional(raw, "trained_delay", fail),
+        trained_delay=_optional(raw, "trained_delay", fail, zero=True),
+        simulation_dt=_optional(raw, "simulation_dt", fail),
     )
-    if "control_dt" not in raw and "control_decimation" in raw and "simulation_dt" in raw:
-        config.control_dt = float(raw["control_decimation"]) * float(raw["simulation_dt"])
+    decimation = _optional(raw, "control_decimation", fail)
+    if config.control_dt is None and decimation is not None and config.simulation_dt:
+        config.control_decimation = decimation
+        config.control_dt = decimation * config.simulation_dt
     declared = raw.get("num_obs")
     if declared is not None and int(declared) != config.num_obs:
         raise fail(f"num_obs is {declared} but the terms make {config.describe_terms()}")
@@ -235,15 +240,15 @@ def _length(value: Any, default: int) -> int:
     return len(value) if isinstance(value, (list, tuple)) else default
 
 
-def _number(value: Any, what: str, fail: Any) -> float:
+def _number(value: Any, what: str, fail: Any, zero: bool = False) -> float:
     try:
         number = float(value)
     except (TypeError, ValueError):
         raise fail(f"{what} is {value!r}: give a number") from None
-    if not number > 0:
-        raise fail(f"{what} is {value!r}: give a number above 0")
+    if not (number >= 0 if zero else number > 0):
+        raise fail(f"{what} is {value!r}: give a number {'of 0 or more' if zero else 'above 0'}")
     return number
 
 
-def _optional(raw: dict[str, Any], key: str, fail: Any) -> float | None:
-    return None if raw.get(key) is None else _number(raw[key], key, fail)
+def _optional(raw: dict[str, Any], key: str, fail: Any, zero: bool = False) -> float | None:
+    return None if raw.get(key) is None else _number(raw[key], key, fail, zero)

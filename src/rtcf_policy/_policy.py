@@ -8,9 +8,10 @@ import numpy as np
 
 import rtcf
 
-from ._config import load_config
+from ._config import PolicyConfig, load_config
 from ._observation import Observation
 from ._session import OnnxPolicy
+from ._timing import ERROR, WARN, Timing, delay_mismatch, period_mismatch
 
 
 class Policy(rtcf.Component):
@@ -27,7 +28,14 @@ class Policy(rtcf.Component):
     Parameters: ``~config`` (the YAML file), ``~model`` (replaces the configuration's
     model), ``~publish_observation`` (also write the observation it fed the model, a
     float32 array, to ``observation``), ``~silent_after_s`` (write nothing from that
-    time on: a policy gone quiet, to try what reads it).
+    time on: a policy gone quiet, to try what reads it), ``~on_delay_mismatch``
+    (``error``, the default, or ``warn``: below).
+
+    ``configure`` checks the configuration's ``control_dt`` against the period it runs
+    at (``every`` over the loop's frequency: a mismatch is an error) and its
+    ``trained_delay`` against the delay it runs with (on LET ``every + 1`` loop
+    periods, inline none): an error, or with ``~on_delay_mismatch:=warn`` a warning, to
+    rehearse a policy run without the delay it was trained with.
 
     Its ``update`` imports nothing and starts no thread; assembling the observation and
     the inference allocate nothing (preallocated arrays, bound once); each value it
@@ -40,6 +48,7 @@ class Policy(rtcf.Component):
             raise rtcf.ConfigurationError("give ~config, the policy's YAML configuration")
         config = load_config(path, str(self.params.get("~model", "") or ""))
         self.config = config
+        self.timing = self._check_timing(config)
         self.model = OnnxPolicy(config, type(self).__name__)
         ports = {}
         for term in config.terms:
@@ -59,9 +68,27 @@ class Policy(rtcf.Component):
         self.silent_at = math.ceil(silent * loop_hz - 1e-9) if silent < math.inf else (
             1 << 62)  # the first iteration that writes nothing
         self.log.nonrt.info(
-            "%s: onnxruntime %s, observation %s, action %d -> %s",
+            "%s: onnxruntime %s, observation %s, action %d -> %s; %s",
             config.model, self.model.version, config.describe_terms(), spec.size, spec.port,
+            self.timing.summary(),
         )
+
+    def _check_timing(self, config: PolicyConfig) -> Timing:
+        """How it runs, against the configuration's control_dt and trained_delay."""
+        on_mismatch = str(self.params.get("~on_delay_mismatch", ERROR))
+        if on_mismatch not in (ERROR, WARN):
+            raise rtcf.ConfigurationError(
+                f"~on_delay_mismatch is {on_mismatch!r}: give error or warn")
+        timing = Timing(self.frequency * self.every, self.every, self.on_let, self.lane_name)
+        problem = period_mismatch(config, timing)
+        if problem:
+            raise rtcf.ConfigurationError(problem)
+        problem = delay_mismatch(config, timing)
+        if problem and on_mismatch == ERROR:
+            raise rtcf.ConfigurationError(problem)
+        if problem:
+            self.log.nonrt.warning("%s", problem)
+        return timing
 
     def start(self) -> None:
         self.observation.reset()

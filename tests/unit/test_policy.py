@@ -19,7 +19,7 @@ onnx = pytest.importorskip("onnx")
 
 from onnx import TensorProto, helper, numpy_helper  # noqa: E402
 
-from rtcf import ComponentError, ComponentSpec, ConfigurationError  # noqa: E402
+from rtcf import ComponentError, ComponentSpec, ConfigurationError, Rate  # noqa: E402
 from rtcf.testing import run_components, run_launch  # noqa: E402
 from rtcf_policy import JointPd, Policy, load_config  # noqa: E402
 
@@ -159,6 +159,176 @@ def test_unitree_field_names_are_read(tmp_path: Path) -> None:
     assert config.kps.tolist() == [100.0, 150.0] and config.action.clip == 5.0  # type: ignore[union-attr]
 
 
+# -- control_dt and trained_delay against how the policy runs ----------------------------
+
+def _timed(tmp_path: Path, fields: str) -> str:
+    """The test configuration with ``fields`` (control_dt, trained_delay, ...) added."""
+    return write_config(tmp_path, np.full((5, 1), 0.1), CONFIG + fields)
+
+
+def _policy(config: str, every: int = 1, lane: str = "", **params: Any) -> Any:
+    """Configure the Policy at 100 Hz, every ``every``, in ``lane``: its component."""
+    trace = run_components([ComponentSpec(
+        "policy", Policy, rate=Rate(every=every), lane=lane,
+        params={"config": config, **params})], 1, frequency=HZ)
+    return trace.components["/policy"]
+
+
+@pytest.mark.parametrize(("every", "lane", "fields"), [
+    (5, "slow", "control_dt: 0.05\ntrained_delay: 0.06\n"),  # LET: (5 + 1) / 100 Hz
+    (5, "", "control_dt: 0.05\ntrained_delay: 0.0\n"),  # inline in main: no delay
+    (1, "other", "control_dt: 0.01\ntrained_delay: 0\n"),  # a lock-step lane: none
+    (4, "slow", "control_decimation: 4\nsimulation_dt: 0.01\ntrained_delay: 0.05\n"),
+    # a trainer at a 25 ms physics step models (5 + 1) x 10 ms as 2 steps (rounded)
+    (5, "slow", "control_decimation: 2\nsimulation_dt: 0.025\ntrained_delay: 0.05\n"),
+])
+def test_control_dt_and_trained_delay_that_match_how_it_runs_pass(
+    tmp_path: Path, every: int, lane: str, fields: str,
+) -> None:
+    policy = _policy(_timed(tmp_path, fields), every, lane)
+    assert policy.timing.every == every and policy.timing.on_let == (lane != "" and every > 1)
+
+
+def test_a_control_dt_other_than_its_period_names_the_file_both_values_and_the_fix(
+    tmp_path: Path,
+) -> None:
+    config = _timed(tmp_path, "control_dt: 0.02\n")
+    with pytest.raises(ComponentError) as err:
+        _policy(config, 5, "slow")  # 5 / 100 Hz = 0.05 s
+    text = str(err.value)
+    assert f"policy configuration {config}: control_dt is 0.02 s" in text
+    assert "on LET in lane 'slow', every 5 at 100 Hz, a period of 0.05 s" in text
+    assert "every:=2 or the loop's frequency 250 Hz" in text
+    assert "(control_dt: 0.05)" in text and "\n" not in text
+    with pytest.raises(ComponentError, match=r"control_dt \(control_decimation 4 x "
+                       r"simulation_dt 0.005\) is 0.02 s"):
+        _policy(_timed(tmp_path, "control_decimation: 4\nsimulation_dt: 0.005\n"), 1)
+
+
+@pytest.mark.parametrize(("every", "lane", "delay", "runs"), [
+    (5, "slow", 0.05, "its action acts 5 + 1 loop periods after the state it saw: 0.06 s"),
+    (5, "", 0.06, "inline in lane 'main', every 5 at 100 Hz, where its action acts with no "
+     "delay"),
+    (5, "slow", 0.0, "on LET in lane 'slow'"),
+    (5, "slow", 0.05, "0.06 s; retrain it for the delay it runs with, or, if training "
+     "modelled 0.06 s, say so in the YAML (trained_delay: 0.06); a trainer whose physics "
+     "step could not model it finer gives its simulation_dt"),
+])
+def test_a_trained_delay_other_than_the_one_it_runs_with_is_an_error(
+    tmp_path: Path, every: int, lane: str, delay: float, runs: str,
+) -> None:
+    config = _timed(tmp_path, f"control_dt: 0.05\ntrained_delay: {delay}\n")
+    with pytest.raises(ComponentError) as err:
+        _policy(config, every, lane)
+    text = str(err.value)
+    assert f"policy configuration {config}: trained_delay is {delay:g} s" in text
+    assert runs in text and "~on_delay_mismatch:=warn runs it anyway" in text
+    assert "\n" not in text
+
+
+def test_on_delay_mismatch_warn_runs_it_with_a_warning(
+    tmp_path: Path, caplog: pytest.LogCaptureFixture,
+) -> None:
+    config = _timed(tmp_path, "control_dt: 0.05\ntrained_delay: 0.06\n")
+    policy = _policy(config, 5, "", on_delay_mismatch="warn")  # inline: no delay
+    assert policy.timing.delay == 0.0
+    assert any("trained_delay is 0.06 s" in r.getMessage() for r in caplog.records)
+    with pytest.raises(ComponentError, match=r"~on_delay_mismatch is 'never': give error or "
+                       "warn"):
+        _policy(config, 5, "slow", on_delay_mismatch="never")
+
+
+def test_a_component_knows_its_lane_and_whether_it_runs_on_let(tmp_path: Path) -> None:
+    config = write_config(tmp_path, np.full((5, 1), 0.1))
+    assert (_policy(config, 5, "slow").lane_name, _policy(config, 5, "slow").on_let) == (
+        "slow", True)
+    assert (_policy(config, 5).lane_name, _policy(config, 5).on_let) == ("main", False)
+    assert _policy(config, 1, "other").on_let is False  # lock step
+
+
+# -- JointPd in the driver's joint order ----------------------------------------------
+
+PD_CONFIG = """
+model: m.onnx
+joints: [a, b, c]
+observation: [{name: x, port: position, size: 1}]
+action: {port: target, offset: [0.1, 0.2, 0.3]}
+kps: [1.0, 2.0, 3.0]
+kds: [0.5, 0.5, 0.5]
+"""
+
+
+def _driver(position: list[float], velocity: list[float], target: list[float]) -> Any:
+    from rtcf import Component
+
+    class Driver(Component):  # its arrays, and from iteration 1 the policy's target
+        def configure(self) -> None:
+            self.q = self.add_output("position", np.ndarray)
+            self.qd = self.add_output("velocity", np.ndarray)
+            self.target = self.add_output("target", np.ndarray)
+
+        def update(self) -> None:
+            self.q.write(np.array(position))
+            self.qd.write(np.array(velocity))
+            if self.iteration:
+                self.target.write(np.array(target))
+
+    return Driver
+
+
+def _pd(tmp_path: Path, **params: Any) -> Any:
+    path = tmp_path / "pd.yaml"
+    path.write_text(PD_CONFIG)
+    # the driver measures [c, x, b, a] (x: a joint the policy does not drive) and takes
+    # commands for [b, c, a]
+    driver = _driver([3.0, 9.0, 2.0, 1.0], [0.3, 9.0, 0.2, 0.1], [10.0, 20.0, 30.0])
+    return run_components([
+        ComponentSpec("driver", driver),
+        ComponentSpec("pd", JointPd, params={"config": str(path), **params}),
+    ], 2)
+
+
+def test_joint_pd_writes_in_the_drivers_joint_order_by_name(tmp_path: Path) -> None:
+    trace = _pd(tmp_path, joints=["c", "x", "b", "a"], command_joints=["b", "c", "a"])
+    pd = trace.components["/pd"]
+    assert pd.index.tolist() == [2, 0, 3] and pd.order.tolist() == [1, 2, 0]
+    effort = [e.tolist() for e in trace.outputs["/effort_command"]]
+    # b, c, a: kp (target - q) - kd qd; the default target first (action.offset)
+    assert effort[0] == pytest.approx([2.0 * (0.2 - 2.0) - 0.1, 3.0 * (0.3 - 3.0) - 0.15,
+                                       1.0 * (0.1 - 1.0) - 0.05])
+    assert effort[1] == pytest.approx([2.0 * (20.0 - 2.0) - 0.1, 3.0 * (30.0 - 3.0) - 0.15,
+                                       1.0 * (10.0 - 1.0) - 0.05])
+
+
+def test_joint_pd_maps_its_target_without_allocating(tmp_path: Path) -> None:
+    pd = _pd(tmp_path, joints=["c", "x", "b", "a"], command_joints=["b", "c", "a"]
+             ).components["/pd"]
+    first, second, peak = _traced(pd.update, 2000)
+    assert second - first < 256 and peak < 4096  # the effort it writes, freed
+
+
+@pytest.mark.parametrize(("params", "message"), [
+    ({"joints": ["c", "b"]}, r"policy joint 'a' \(.*pd.yaml\) is not among the driver's "
+     r"~joints \['c', 'b'\]"),
+    ({"joints": ["c", "x", "b", "a"]}, r"driver joint 'x' \(~joints\) is not among the "
+     r"policy's joints \['a', 'b', 'c'\] \(.*pd.yaml\): the PD stage has no target for it"),
+    ({"joints": ["c", "x", "b", "a"], "command_joints": ["b", "a"]},
+     r"policy joint 'c' \(.*\) is not among the driver's ~command_joints \['b', 'a'\]"),
+    ({"joints": ["c", "b", "a"], "command_joints": ["b", "c", "a", "d"]},
+     r"driver joint 'd' \(~command_joints\) is not among the policy's joints"),
+    ({"joints": ["c", "b", "a", "b"]}, r"joint 'b' is in ~joints twice"),
+    ({"joints": ["c", "b", "a"], "index": [0, 1, 2]}, r"give ~joints .* or ~index, not both"),
+    ({"command_joints": ["a", "b", "c"]}, r"~command_joints needs ~joints"),
+    ({"joints": "a, b, c"}, r"~joints is 'a, b, c': give a list of joint names"),
+])
+def test_joint_pd_names_an_unknown_or_missing_joint(
+    tmp_path: Path, params: dict[str, Any], message: str,
+) -> None:
+    with pytest.raises(ComponentError, match=r"component '/pd': configure\(\) failed: "
+                       + message):
+        _pd(tmp_path, **params)
+
+
 def _tasks() -> int:
     return len(os.listdir("/proc/self/task"))
 
@@ -243,7 +413,8 @@ def _pole_rms(trace: Any) -> float:
 def test_it_balances_through_the_push_and_without_its_trained_delay_does_worse() -> None:
     pytest.importorskip("mujoco")
     let = run_launch(EXAMPLE, 4000)
-    inline = run_launch(EXAMPLE, 4000, args={"policy_lane": "main"})
+    inline = run_launch(EXAMPLE, 4000, args={"policy_lane": "main",
+                                             "on_delay_mismatch": "warn"})
     angles = np.array([p[1] for p in let.outputs["/cartpole/position"]])
     assert abs(angles[2400]) < 0.01 and abs(angles[-1]) < 0.05  # before the push; after
     assert np.max(np.abs(angles[2500:])) > 0.1  # the push did push
@@ -273,7 +444,8 @@ def test_a_policy_gone_quiet_leaves_the_pd_stage_in_its_safe_behaviour(
 @pytest.mark.parametrize("lane", ["policy", "main"])
 def test_both_launch_formats_give_the_same_run(lane: str) -> None:
     pytest.importorskip("mujoco")
-    args = {"policy_lane": lane, "silent_after_s": "0.3"}  # the deadline passes at 351
+    args = {"policy_lane": lane, "silent_after_s": "0.3",  # the deadline passes at 351
+            "on_delay_mismatch": "warn"}  # inline: not the delay it was trained with
     a = run_launch(EXAMPLE, 400, args=args)
     b = run_launch(EXAMPLE + ".xml", 400, args=args)
     assert set(a.outputs) == set(b.outputs) and "/cartpole/target" in a.outputs

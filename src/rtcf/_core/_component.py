@@ -36,6 +36,7 @@ from ._interface_ports import (
     add_port,
     declare_interfaces,
 )
+from ._lane_names import MAIN_LANE
 from ._log import ComponentLogger, LogRing, RecordSink
 from ._loop_state import LoopState
 from ._names import Resolver, join
@@ -67,6 +68,7 @@ class Component:
     _rtcf_hardware: HardwareKeys | None = None  # the run's hardware (None: none)
     _rtcf_configured: bool
     _rtcf_every: int = 1  # runs every this many iterations (its launcher's rate or every)
+    _rtcf_lane: str = MAIN_LANE  # the lane (worker process) it runs in
     # while configure runs again (lifecycle): the port names declared so far
     _rtcf_redeclared: set[str] | None = None
 
@@ -270,6 +272,21 @@ class Component:
         """It runs every this many iterations of the loop (1: every iteration)."""
         return self._rtcf_every
 
+    @property
+    def lane_name(self) -> str:
+        """The lane it runs in (its launcher's ``lane``; ``"main"``: the runner's own).
+        Not ``lane``: a component's own attribute of that name (a lane keeper's) stays
+        its own."""
+        return self._rtcf_lane
+
+    @property
+    def on_let(self) -> bool:
+        """Whether it runs on logical execution time: in a lane other than main, every
+        N > 1 iterations. Released in iteration ``r``, it then reads its inputs as
+        iteration ``r - 1`` left them, and what it writes appears at the start of
+        iteration ``r + N`` (docs/runner.md#lanes). Known in ``configure``."""
+        return self._rtcf_lane != MAIN_LANE and self._rtcf_every > 1
+
     def __repr__(self) -> str:
         return f"<{type(self).__name__} {self.full_name}>"
 
@@ -286,6 +303,7 @@ def _attach(
     emit: Callable[[int, str, str, int, int], None] | None = None,
     every: int = 1,
     hardware: HardwareKeys | None = None,
+    lane: str = MAIN_LANE,
 ) -> None:
     """Give ``component`` its identity and its access to the runner (before __init__)."""
     component.name = name
@@ -305,6 +323,7 @@ def _attach(
     component._rtcf_hardware = hardware
     component._rtcf_configured = False
     component._rtcf_every = every
+    component._rtcf_lane = lane
 
 
 def overrides(component: Component, hook: str) -> bool:

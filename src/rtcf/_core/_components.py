@@ -177,6 +177,7 @@ class Components:
             emit=self.notices.emit,
             every=every,
             hardware=self.hardware,
+            lane=lane_of(spec.lane),
         )
         component.log.set_level(self.log_level if spec.log_level is None else spec.log_level)
         try:
