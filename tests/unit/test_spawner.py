@@ -216,6 +216,74 @@ def test_ros2_control_node_given_the_yaml_is_the_runner_and_its_controller_manag
     assert deployment.warnings == []  # its types and update_rate are no unknown settings
 
 
+# a bringup whose controller manager is named and given its update_rate as a <param>,
+# its controllers' types in their own sections of a file only the spawners are given
+SPAWNER_ONLY = """\
+broadcaster:
+  ros__parameters:
+    type: joint_state_broadcaster/JointStateBroadcaster
+"""
+
+
+def named_manager(tmp_path: Path, params: str) -> str:
+    write(tmp_path, "spawned.yaml", SPAWNER_ONLY)
+    return write(tmp_path, "named.launch.xml", f"""<launch>
+  <node pkg="controller_manager" exec="ros2_control_node" name="cm">{params}</node>
+  <node pkg="controller_manager" exec="spawner"
+        args="broadcaster -c cm -p $(dirname)/spawned.yaml"/>
+</launch>""")
+
+
+def test_ros2_control_node_runs_at_its_update_rate_param(tmp_path: Path) -> None:
+    deployment = load_deployment([named_manager(
+        tmp_path, '<param name="update_rate" value="10"/>')])
+    target = deployment.runner
+    assert target.name == "/cm" and target.settings.frequency == 10.0
+    assert [s.full_name for s in target.components] == ["/broadcaster"]
+    assert deployment.warnings == []
+
+
+def test_ros2_control_node_without_update_rate_runs_at_ros2_controls_default(
+    tmp_path: Path,
+) -> None:
+    deployment = load_deployment([named_manager(tmp_path, "")])
+    assert deployment.runner.settings.frequency == 100.0
+    assert [w.split(": ", 1)[1] for w in deployment.warnings] == [
+        "ros2_control_node '/cm': update_rate not given, using ros2_control's default 100 Hz"]
+
+
+def test_ros2_control_node_update_rate_as_the_node_reads_it(tmp_path: Path) -> None:
+    """Its <param>s and its files' section in the file's order, later ones winning; a
+    frequency of the runner's own must agree with it."""
+    write(tmp_path, "controllers.yaml", CONTROLLERS)  # controller_manager: update_rate 100
+    node = '<node pkg="controller_manager" exec="ros2_control_node">{}</node>'
+    after = write(tmp_path, "after.launch.xml", "<launch>" + node.format(
+        '<param from="$(dirname)/controllers.yaml"/><param name="update_rate" value="25"/>')
+        + "</launch>")
+    assert load_deployment([after]).runner.settings.frequency == 25.0
+    both = write(tmp_path, "both.launch.xml", "<launch>" + node.format(
+        '<param name="update_rate" value="25"/><param name="frequency" value="50.0"/>')
+        + "</launch>")
+    with pytest.raises(LaunchError, match=r"both.launch.xml:1: .*frequency 50 Hz and "
+                       r"update_rate 25 Hz differ"):
+        load_deployment([both])
+    bad = write(tmp_path, "bad.launch.xml", "<launch>" + node.format(
+        '<param name="update_rate" value="fast"/>') + "</launch>")
+    with pytest.raises(LaunchError, match=r"update_rate 'fast' is not a positive number"):
+        load_deployment([bad])
+
+
+def test_ros2_control_node_puts_its_controllers_topics_on_ros(tmp_path: Path) -> None:
+    """ros2_control's controllers' topics are ROS 2 topics: the node needs no whitelist
+    (with hardware, the interfaces are no ports); one it is given wins."""
+    settings = load_deployment([named_manager(tmp_path, "")]).runner.settings
+    assert settings.maps_to_ros("/joint_states") and settings.maps_to_ros("/cmd_vel")
+    given = load_deployment([named_manager(
+        tmp_path, '<param name="ros_mapping_whitelist" value="/joint_states"/>')])
+    assert given.runner.settings.maps_to_ros("/joint_states")
+    assert not given.runner.settings.maps_to_ros("/cmd_vel")
+
+
 def test_controller_ros_args_reach_the_component_and_win(tmp_path: Path) -> None:
     ros_file = write(tmp_path, "ros.yaml", """\
 arm_controller:

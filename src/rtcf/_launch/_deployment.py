@@ -9,9 +9,10 @@ parameters its parameters (``is_first``, ``topics_ignore_for_graph``, ``rt_packa
 
 ros2_control's nodes stand for the same: ``<node pkg="controller_manager"
 exec="ros2_control_node">`` is a runner that is its own controller manager (of its
-parameters, only the runner's settings are read; the rest is the YAML's controller
-manager section), and a ``spawner`` loads its controllers into the runner of its
-controller manager (:mod:`._spawner`). Every other node is kept as it is
+parameters, only ``update_rate`` and the runner's settings are read; the rest is the
+YAML's controller manager section; its ports' topics are all mapped, as ros2_control's
+controllers' topics are ROS 2 topics), and a ``spawner`` loads its controllers into
+the runner of its controller manager (:mod:`._spawner`). Every other node is kept as it is
 (``other_nodes``): ``rtcf launch`` starts it as ros2 launch would (:mod:`rtcf._cli._other_nodes`).
 
 Each runner gets the robot description it would read, with its ``<ros2_control>``
@@ -45,6 +46,11 @@ PACKAGE = "rtcf"
 RUNNER = "rt_runner"
 LAUNCHER = "rt_launcher"
 CONTROL_PACKAGE, CONTROL_NODE = "controller_manager", "ros2_control_node"
+# a ros2_control_node read as a runner: ros2_control's default update_rate, and every
+# port's topic on ROS 2 (with hardware, the interfaces are no ports: what is left are
+# the controllers' topics, ~/commands, /joint_states, ~/odom, /tf, ...)
+CONTROL_NODE_RATE = 100.0
+CONTROL_NODE_WHITELIST = ".*"
 RUNNER_SETTINGS = frozenset(RunnerSettings.__dataclass_fields__) - {"notes"}
 LAUNCHER_PARAMS = (
     "is_first",
@@ -185,10 +191,14 @@ def _runner(node: NodeDescription, params: ParameterStore,
     private = {k: v for k, v in (private if isinstance(private, dict) else {}).items()
                if k != DESCRIPTION_PARAM}  # the robot description's, not a setting
     where = f"{node.executable} {node.full_name!r}"
-    if is_ros2_control_node(node):
+    control_node = is_ros2_control_node(node)
+    update_rate = private.get("update_rate") if control_node else None
+    if control_node:
         # its parameters are the controller manager's (update_rate, the types): of those
-        # only the runner's own settings are read; it is the controller manager itself
+        # only the runner's own settings are read; it is the controller manager itself,
+        # and its controllers' topics are ROS 2 topics, as ros2_control's are
         private = {"mode": "no_wait", "controller_manager": node.name,
+                   "ros_mapping_whitelist": CONTROL_NODE_WHITELIST,
                    **{k: v for k, v in private.items() if k in RUNNER_SETTINGS
                       or k.startswith("hardware_components_initial_state")}}
     try:
@@ -199,6 +209,8 @@ def _runner(node: NodeDescription, params: ParameterStore,
             controllers = read_setup(node.params_files, manager)
             set_initial_states(settings, controllers.params_for(manager))
             controllers.set_frequency(settings, "frequency" in private, where)
+        if control_node:
+            _control_node_rate(settings, update_rate, "frequency" in private, where)
     except LaunchError:
         raise
     except Exception as exc:  # ConfigurationError: add the file and line
@@ -206,6 +218,33 @@ def _runner(node: NodeDescription, params: ParameterStore,
     warnings.extend(f"{node.location}: {n}" for n in settings.notes)
     return RunnerDeployment(node.full_name, settings, node.location, env=dict(node.env),
                             controllers=controllers)
+
+
+def _control_node_rate(settings: RunnerSettings, rate: object, given: bool,
+                       where: str) -> None:
+    """A ros2_control_node's loop runs at its ``update_rate`` parameter, as the node
+    reads it (its ``<param>``s and its files' section, in the file's order), else at
+    ros2_control's default, 100 Hz; a ``frequency`` of its own must agree."""
+    if rate is None:
+        if given:
+            return
+        rate = CONTROL_NODE_RATE
+        note = f"update_rate not given, using ros2_control's default {CONTROL_NODE_RATE:g} Hz"
+    else:
+        note = ""
+    if isinstance(rate, bool) or not isinstance(rate, (int, float)) or not rate > 0:
+        raise ConfigurationError(f"{where}: update_rate {rate!r} is not a positive number of Hz")
+    if given:
+        if settings.frequency != rate:
+            raise ConfigurationError(
+                f"{where}: frequency {settings.frequency:g} Hz and update_rate {rate:g} Hz "
+                "differ; give one of them, or the same value")
+        return
+    settings.frequency = float(rate)
+    settings.notes = [n for n in settings.notes if "no frequency given" not in n]
+    if note:
+        settings.notes.append(f"{where}: {note}")
+    settings.validate(f"{where} (update_rate)")
 
 
 def _spawn(node: NodeDescription, runners: list[RunnerDeployment], warnings: list[str]) -> None:
