@@ -99,11 +99,19 @@ def test_an_early_exit_is_one_line_and_ends_the_loop_only_when_required(
     assert nodes.shutdown_by is None
 
     said.clear()
-    nodes = OtherNodes([node("q", "quits", 5, on_exit="shutdown"), node("r", "runs", 6)],
+    written: list[str] = []
+    nodes = OtherNodes([node("q", "quits", 5, on_exit="shutdown"),
+                        node("r", "runs", 6, output="screen")],
                        ParameterStore(), say=said.append, environ=env,
-                       on_shutdown=shutdown.set)
+                       write=lambda text, err: written.append(text), on_shutdown=shutdown.set)
     nodes.start()
     assert shutdown.wait(5.0)
+    # /r's trap is set before it says "up": a SIGINT before that would end the shell
+    # itself (exit code -2), which is the shell's doing, not the stop's
+    deadline = time.monotonic() + 10.0
+    while not any(t.startswith("[runs-") and " up " in t for t in written):
+        assert time.monotonic() < deadline, written
+        time.sleep(0.02)
     nodes.stop()
     assert nodes.shutdown_by == "/q"
     assert any("exited with code 3" in line and line.endswith("stopping the loop")
