@@ -8,6 +8,10 @@ runs the loop again. Shared by the ROS 1 and the ROS 2 rt_runner.
 A lifecycle transition needs no stop: it reaches the running loop as an update
 record (``WorkerRunner.change_state``). Only when no loop runs must the main thread
 hand it over, so the queue wakes it with a ``sync`` request, which stops nothing.
+The first ``configure`` of a component loaded unconfigured (ros2_control's
+``load_controller``) declares its ports, so the graph is resolved again: a
+``configure`` request serves it between two runs, as a load is, and answers once the
+supervisor knows the new ports (``outcome``: the transition's).
 """
 
 from __future__ import annotations
@@ -49,6 +53,7 @@ class Request:
         self.ok = False
         self.reason = ""
         self.abandoned = False  # its caller stopped waiting: not served any more
+        self.outcome: Any = None  # a configure's TransitionOutcome
 
 
 class RequestQueue:
@@ -148,6 +153,8 @@ def serve_request(
             runner.unload(full)
             req.reason = unloaded(full)
             say(f"unloaded {full}")
+        elif req.kind == "configure":  # a first configure: between two runs
+            req.outcome = runner.change_state(req.payload, "configure")
         elif req.kind == "activate":
             runner.activate()
         elif req.kind == "deactivate":

@@ -19,6 +19,7 @@ from typing import Any
 
 from .._core._errors import RtcfError
 from .._core._lifecycle import (
+    CONFIGURE,
     OUTCOME_RECORD_SIZE,
     OUTCOME_RING_RECORDS,
     REFUSED,
@@ -62,6 +63,8 @@ class WorkerUpdates:
         self._request_numbers = itertools.count(1)
         # told every transition a component went through (a bridge: transition events)
         self.listeners: list[Callable[[str, TransitionOutcome], None]] = []
+        # loaded unconfigured, then configured: its ports and tunables to describe again
+        self.configured: set[str] = set()
 
     def open(self, segment: Callable[[int, str], Segment]) -> Segment:
         """One segment, two rings: updates to the worker, lifecycle outcomes back."""
@@ -117,6 +120,13 @@ class WorkerUpdates:
         with self.lock:
             info["log_level"] = number
             self.post((LOG_LEVEL, str(info["name"]), ""), number)
+
+    def take_configured(self) -> list[str]:
+        """The components loaded unconfigured that their first configure declared ports
+        and tunables for, since the last call (to describe again)."""
+        with self.lock:
+            names, self.configured = sorted(self.configured), set()
+        return names
 
     def unloaded(self, component: str) -> None:
         """The worker unloaded ``component``: its entry and its updates go, and the
@@ -196,6 +206,10 @@ class WorkerUpdates:
                 component = pending.component
             if news:
                 self.loaded.set_lifecycle(component, STATE_LABELS[outcome.end])
+                info = self.loaded.components.get(component)
+                if (outcome.transition == CONFIGURE and outcome.ok and info is not None
+                        and info.get("configured") is False):
+                    self.configured.add(component)
         if news and component:
             for listener in self.listeners:
                 listener(component, outcome)
