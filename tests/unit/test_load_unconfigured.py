@@ -154,3 +154,24 @@ def test_an_unconfigured_component_is_torn_down_without_hooks() -> None:
     r.unload("relay")
     assert Counted.configures == 0 and "/relay" not in r.components
     assert r.shutdown() == []
+
+
+def test_on_hardware_its_interfaces_are_bound_at_its_first_configure() -> None:
+    """A controller of a robot description's hardware, loaded by name as ros2_control's
+    load_controller does: no interfaces claimed or bound until configured."""
+    from .test_hardware_loop import ARM, Arm, state
+    from .test_hardware_loop import runner as hardware_runner
+
+    r = hardware_runner()
+    arm = r.load(ComponentSpec("arm", cls=Arm, unconfigured=True))
+    assert r.describe_component("/arm")["interfaces"] == ([], [])
+    assert r.schedule == ["@hardware.read", "/arm", "@hardware.write"]
+    r.run(2)
+    assert state(r, "joint3/position") == 0.0 and not hasattr(arm, "seen")
+    assert r.change_state("/arm", "configure").ok
+    assert r.describe_component("/arm")["interfaces"] == (ARM, ARM)
+    assert r.change_state("/arm", "activate").ok
+    assert r.hardware is not None and r.hardware.claimed_interfaces("/arm") == ARM
+    r.run(3)
+    assert state(r, "joint3/position") == pytest.approx(0.02)  # the last command is read next
+    assert arm.seen == [FlowStatus.NEW_DATA] * 3
