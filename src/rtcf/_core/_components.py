@@ -228,7 +228,6 @@ class Components:
         component.params.sealed = True
         return True
 
-
     def entry(self, name: str) -> Loaded:
         full = normalize_namespace(name) if name.startswith("/") else join("/", name)
         entry = self.entries.get(full)
