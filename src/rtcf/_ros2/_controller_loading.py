@@ -160,15 +160,8 @@ class ControllerLoading:
             return self._error(f"Controller '{name}' can not be configured from '{state}' state.")
         if state == "inactive" and not self._transition(name, "cleanup", "configure"):
             return False
-        full = expand(name, self._namespace)
-        queue = self._runner.requests
-        info = self._runner.components.get(full, {})
-        if info.get("configured") is False and queue is not None:
-            # its first: it declares the ports, served between two runs as a load is
-            done = queue.submit("configure", full)
-            if done.outcome is None:
-                return self._error(f"Could not configure controller '{name}': {done.reason}")
-            return self._outcome(name, "configure", "configure", done.outcome)
+        # the first one declares the ports: served between two runs as a load is
+        # (WorkerRunner.change_state)
         return self._transition(name, "configure", "configure")
 
     def _do_unload(self, name: str) -> bool:
@@ -190,9 +183,6 @@ class ControllerLoading:
             outcome = self._runner.change_state(expand(name, self._namespace), transition)
         except RtcfError as exc:
             return self._error(f"Could not {what} controller '{name}': {exc}")
-        return self._outcome(name, transition, what, outcome)
-
-    def _outcome(self, name: str, transition: str, what: str, outcome: Any) -> bool:
         if outcome.ok:
             return True
         state = self._state(name)

@@ -9,9 +9,10 @@ A lifecycle transition needs no stop: it reaches the running loop as an update
 record (``WorkerRunner.change_state``). Only when no loop runs must the main thread
 hand it over, so the queue wakes it with a ``sync`` request, which stops nothing.
 The first ``configure`` of a component loaded unconfigured (ros2_control's
-``load_controller``) declares its ports, so the graph is resolved again: a
-``configure`` request serves it between two runs, as a load is, and answers once the
-supervisor knows the new ports (``outcome``: the transition's).
+``load_controller``) declares its ports, so the graph is resolved again: asked for
+from another thread (``_updates.queued_first_configure``), a ``configure`` request serves
+it between two runs, as a load is, and answers once the supervisor knows the new
+ports (``outcome``: the transition's).
 """
 
 from __future__ import annotations
@@ -170,3 +171,4 @@ def serve_request(
         say(f"refused {req.kind}: {req.reason}")
     finally:
         req.done.set()
+

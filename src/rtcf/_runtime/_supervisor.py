@@ -47,7 +47,7 @@ from ._middleware import parameter_set
 from ._port_channels import MailboxFanOut, MappedPort
 from ._recording import RecordSink
 from ._runs import RunChannels
-from ._updates import WorkerUpdates, change_states
+from ._updates import WorkerUpdates, change_states, queued_first_configure
 from ._worker_process import WorkerProcess, keep_off_cpus
 
 
@@ -385,6 +385,10 @@ class WorkerRunner:
         applies its components' at the start of one iteration, in the order given
         (``strict``: all or none, rtcf._core._switching); the outcomes come in that order."""
         self.admission.refuse_if_locked("lifecycle transitions")
+        queued = queued_first_configure(self.requests, self.components, transitions,
+                                        threading.get_ident() == self._owner)
+        if queued is not None:  # a first configure: served between two runs, as a load
+            return [queued]
         asked = []
         for component, transition in transitions:
             owner = self._owner_of(component)
@@ -397,8 +401,7 @@ class WorkerRunner:
         return outcomes
 
     def _configured(self) -> None:
-        """Components loaded unconfigured and configured since: their ports and tunables
-        as the worker describes them now (main thread, no loop running)."""
+        """Describe again what first configures declared (main thread, no loop running)."""
         tell = getattr(self.bridge, "component_configured", None)  # (ROS 2's)
         described = [(worker, full) for worker in (self, *self._lanes.workers.values())
                      for full in worker._updates.take_configured()]
@@ -432,6 +435,7 @@ class WorkerRunner:
     def sync(self) -> None:
         """Have the worker apply what waits for it, when no loop runs (main thread)."""
         self._call_all("sync")
+        self._configured()  # a first configure among them: its ports described now
 
     def activate(self) -> None:
         self._call_all("activate")

@@ -123,7 +123,9 @@ class WorkerUpdates:
 
     def take_configured(self) -> list[str]:
         """The components loaded unconfigured that their first configure declared ports
-        and tunables for, since the last call (to describe again)."""
+        and tunables for, since the last call (to describe again); the outcomes the
+        worker sent are taken first (main thread)."""
+        self.pump()
         with self.lock:
             names, self.configured = sorted(self.configured), set()
         return names
@@ -264,3 +266,25 @@ class PendingTransition:
         self.transition = transition
         self.done = threading.Event()
         self.outcome: TransitionOutcome | None = None
+
+
+def queued_first_configure(
+    requests: Any, components: dict[str, dict[str, Any]],
+    transitions: Sequence[tuple[str, int | str]], on_main: bool,
+) -> TransitionOutcome | None:
+    """The first configure of a component loaded unconfigured (it declares its ports: the
+    graph is resolved again), asked for from a thread other than the main one (``not
+    on_main``): served by the runner's request queue (``requests``, :mod:`._requests`)
+    between two runs, as a load is, so that the next run maps the new ports. None when
+    it is not one, or no queue serves."""
+    if on_main or requests is None or len(transitions) != 1:
+        return None
+    component, transition = transitions[0]
+    info = components.get("/" + component.lstrip("/"))
+    if (str(transition) not in ("configure", str(CONFIGURE)) or info is None
+            or info.get("configured") is not False):
+        return None
+    full = str(info["name"])
+    req = requests.submit("configure", full)
+    outcome: TransitionOutcome | None = req.outcome
+    return outcome or refused(UNKNOWN, f"component {full!r}: configure: {req.reason}")
