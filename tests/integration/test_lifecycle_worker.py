@@ -16,6 +16,7 @@ from typing import Any
 import pytest
 
 from rtcf import ComponentSpec, RtcfError, RunnerSettings
+from rtcf._core._executor import CONTROL
 from rtcf._core._faults import FailurePolicy
 from rtcf._core._lifecycle import TransitionOutcome
 from rtcf._core._log import LogRecord
@@ -298,4 +299,87 @@ def test_inputs_past_their_deadline_are_named_from_every_lane() -> None:
         status = seen[0]
         assert sorted(status.past_deadline) == ["/far.x", "/near.x"]
         assert status.deadline_misses >= 2
+        assert runner.shutdown() == []
+
+
+def test_a_component_loaded_unconfigured_gets_its_ports_at_its_first_configure(
+    tmp_path: Path,
+) -> None:
+    """Loaded unconfigured (load_controller's way), a component has no ports; its first
+    configure, asked for from another thread while the loop runs (a request, or
+    change_state: configure_controller, a lifecycle service), is served between two runs
+    as a load is: the supervisor describes the ports, and the next run's plan has them."""
+    trace = tmp_path / "trace.csv"
+    mod = "rtcf_lifecycle_components"
+    with WorkerRunner(RunnerSettings(frequency=FREQUENCY)) as runner:
+        runner.load(ComponentSpec("ramp", module=mod, class_name="Ramp"))
+        for name, out in (("queued", "y"), ("asked", "z")):
+            runner.load(ComponentSpec(name, module=mod, class_name="Follower",
+                                      remaps=[("y", out)], unconfigured=True))
+        assert runner.components["/queued"]["inputs"] == []
+        assert runner.components["/queued"]["configured"] is False
+        assert runner.lifecycle_state("/asked") == "unconfigured"
+        requests = RequestQueue(runner)
+        done = threading.Event()
+        results: dict[str, Any] = {}
+
+        def serve(req: Request) -> None:
+            serve_request(req, runner, print, lambda p: "", lambda f: "")
+
+        def operate() -> None:
+            try:
+                wait_until(lambda: runner.loop_running)
+                results["queued"] = requests.submit("configure", "/queued").outcome
+                results["queued_inputs"] = list(runner.components["/queued"]["inputs"])
+                wait_until(lambda: runner.loop_running)
+                results["asked"] = runner.change_state("/asked", "configure")
+                results["asked_inputs"] = list(runner.components["/asked"]["inputs"])
+                for name in ("/queued", "/asked"):
+                    assert runner.change_state(name, "activate").ok
+                time.sleep(0.2)
+            finally:
+                done.set()
+                runner.request_stop()
+
+        t = threading.Thread(target=operate)
+        t.start()
+        requests.serve_until_stopped(
+            serve, done.is_set, lambda: runner.run(None, trace=str(trace)) and None)
+        t.join()
+        assert runner.shutdown() == []
+    for name in ("queued", "asked"):
+        assert results[name].ok and results[name].end_label == "inactive"
+        assert [p["topic"] for p in results[f"{name}_inputs"]] == ["/x"]  # described at once
+    with trace.open() as f:
+        rows = list(csv.DictReader(f))
+    assert float(rows[-1]["/y"]) == float(rows[-1]["/x"]) + 1000.0
+    assert float(rows[-1]["/z"]) == float(rows[-1]["/x"]) + 1000.0
+
+
+def test_a_first_configure_the_running_loop_applies_ends_its_run_to_run_again() -> None:
+    """With no request queue (a program of its own), the running loop applies the first
+    configure as it applies any transition; its run then ends (CONTROL: the loop is
+    to run again) and the next run describes and connects the new ports."""
+    mod = "rtcf_lifecycle_components"
+    with WorkerRunner(RunnerSettings(frequency=FREQUENCY)) as runner:
+        runner.load(ComponentSpec("ramp", module=mod, class_name="Ramp"))
+        runner.load(ComponentSpec("late", module=mod, class_name="Follower",
+                                  unconfigured=True))
+        outcomes: list[TransitionOutcome] = []
+
+        def operate() -> None:
+            wait_until(lambda: runner.loop_running and runner.live_status().iterations > 5)
+            outcomes.append(runner.change_state("/late", "configure"))
+
+        t = threading.Thread(target=operate)
+        t.start()
+        first = runner.run(2000)  # ends early, after the iteration that configured it
+        t.join()
+        assert outcomes[0].ok and first.iterations < 2000
+        assert runner.stop_reason == CONTROL
+        runner.clear_stop()
+        assert runner.change_state("/late", "activate").ok
+        runner.run(5)
+        assert [p["topic"] for p in runner.components["/late"]["inputs"]] == ["/x"]
+        assert runner.introspect()["order"] == ["/ramp", "/late"]
         assert runner.shutdown() == []

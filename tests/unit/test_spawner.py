@@ -83,6 +83,7 @@ def test_args_as_the_spawner_reads_them() -> None:
     assert parse(spawner("a -t pid_controller/PidController")).type_name.startswith("pid")
     # served: --activate-as-group is what rtcf does anyway (no warning)
     assert parse(spawner("a b --activate-as-group")).ignored == []
+    assert parse(spawner("a --load-only")).load_only  # loaded unconfigured
 
 
 def test_controller_ros_args_are_the_controllers_remaps_and_parameters() -> None:
@@ -101,7 +102,6 @@ def test_spawner_nodes_are_named_as_the_spawner_names_itself() -> None:
 @pytest.mark.parametrize(
     ("args", "fragment"),
     [
-        ("a --load-only", "option --load-only is not supported by rtcf: rtcf configures"),
         ("a --controller-ros-args '-r __ns:=/x'", "the remap '__ns:=/x' is not read"),
         ("a --controller-ros-args '--log-level debug'", "'--log-level' is not read"),
         ("a --controller-ros-args '-p gain'", "-p 'gain' is not NAME:=VALUE"),
@@ -139,6 +139,14 @@ def test_each_name_is_a_component_of_its_type_with_its_sections_parameters(
     assert arm.params["joints"] == ["j1", "j2"] and arm.params["gains/j1/p"] == 2.0
     assert arm.rate.rate == 50.0 and jsb.rate.rate == 0.0  # its section's update_rate
     assert jsb.location is not None and jsb.location.line == 7
+    assert not (jsb.unconfigured or arm.unconfigured or base.unconfigured)
+
+
+def test_load_only_loads_it_unconfigured(tmp_path: Path) -> None:
+    loaded = specs(tmp_path, """
+  <node pkg="controller_manager" exec="spawner" args="arm_controller --load-only"/>""")
+    arm = loaded["/arm_controller"]
+    assert arm.unconfigured and not arm.autostart
 
 
 def test_a_param_file_overrides_the_runners_and_may_give_the_type(tmp_path: Path) -> None:

@@ -88,8 +88,8 @@ class Component:
 
     # -- hooks --------------------------------------------------------------
     def configure(self) -> bool | None:
-        """Add ports and read parameters. Runs when the component is loaded, and again
-        on a lifecycle ``configure`` after ``cleanup`` (same ports, same tunables)."""
+        """Add ports and read parameters. Runs at load (or at the first ``configure`` if
+        loaded unconfigured), again at ``configure`` after ``cleanup`` (same ports)."""
         return None
 
     def start(self) -> bool | None:

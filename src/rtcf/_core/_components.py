@@ -25,7 +25,7 @@ from ._graph import GraphNode, PortInfo
 from ._interface_ports import HardwareKeys, required_interfaces
 from ._lane_names import validate_lane_name
 from ._lanes import Member, lane_of
-from ._lifecycle import INACTIVE, STATE_LABELS
+from ._lifecycle import INACTIVE, STATE_LABELS, UNCONFIGURED
 from ._loader import load_component_class
 from ._loop_state import LoopState
 from ._message_types import type_name
@@ -47,6 +47,9 @@ class ComponentSpec:
     regex; matching incoming connections do not constrain the order. ``log_level``
     is the component's start level (before ``configure``); None: the runner's.
     ``policy`` says what the loop does when its ``update`` raises (``on_error``).
+    ``unconfigured``: constructed only, as ros2_control's ``load_controller`` leaves a
+    controller; its ``configure`` first runs at a lifecycle ``configure`` (docs/runner.md,
+    "Loading unconfigured").
     """
 
     name: str
@@ -64,8 +67,11 @@ class ComponentSpec:
     rate: Rate = field(default_factory=Rate)  # how often it runs (rate, every, phase)
     lane: str = ""  # the worker process (lane) it runs in; "" or "main": the runner's own
     # False: it stays inactive when the loop next starts, until a lifecycle transition
-    # (a controller loaded by load_controller, which ros2_control leaves unconfigured)
     autostart: bool = True
+    # True: constructed only (its __init__ runs, its params are in the tree), left
+    # unconfigured with no ports; its first lifecycle configure declares them and the
+    # graph is resolved again (ros2_control's load_controller)
+    unconfigured: bool = False
 
     @property
     def full_name(self) -> str:
@@ -83,7 +89,8 @@ class Loaded:
     spec: ComponentSpec
     component: Component
     ignore: re.Pattern[str] | None
-    state: int = INACTIVE  # lifecycle (_lifecycle): loaded means configured
+    state: int = INACTIVE  # lifecycle (_lifecycle): loaded means configured (unless
+    # the spec asks for it unconfigured)
     autostart: bool = True  # activated when the loop next starts (until a transition)
     restarts: int = 0  # times on_error restart brought it back
 
@@ -113,15 +120,13 @@ class Components:
     # -- loading ------------------------------------------------------------
     def load(self, spec: ComponentSpec, lane: str | None) -> Component:
         """Construct and configure a component (``lane``: the lane this runner runs;
-        None: every lane)."""
+        None: every lane); construct only when ``spec.unconfigured``."""
         file = spec.location.file if spec.location else None
         line = spec.location.line if spec.location else None
         full = spec.full_name
 
         def fail(msg: str, cause: BaseException | None = None) -> ComponentError:
-            err = ComponentError(f"component {full!r}: {msg}", component=full, file=file, line=line)
-            err.__cause__ = cause
-            return err
+            return _failed(spec, msg, cause)
 
         problem = validate_name(spec.name, what="component name")
         if problem or "/" in spec.name:
@@ -180,27 +185,48 @@ class Components:
             lane=lane_of(spec.lane),
         )
         component.log.set_level(self.log_level if spec.log_level is None else spec.log_level)
+        entry = Loaded(spec, component, ignore, autostart=spec.autostart)
+        if spec.unconfigured:  # ros2_control's load: constructed, on_init, no configure
+            try:
+                component.__init__()  # type: ignore[misc]
+            except Exception as exc:
+                self.notices.drain()
+                raise fail(f"__init__() raised {type(exc).__name__}: {exc}", exc) from exc
+            entry.state, entry.autostart = UNCONFIGURED, False
+        elif not self.configure_first(entry, construct=True):
+            raise fail("configure() returned False")
+        self.entries[full] = entry
+        return component
+
+    def configure_first(self, entry: Loaded, construct: bool = False) -> bool:
+        """The component's first ``configure`` (``construct``: its ``__init__`` first): at
+        its load, or at its first lifecycle configure when it was loaded unconfigured.
+        False: it returned False; ComponentError: it raised, or its ports do not fit the
+        launch file's deadlines. Either way what it declared is forgotten."""
+        component, spec = entry.component, entry.spec
         try:
-            component.__init__()  # type: ignore[misc]
-            self.notices.observe(full, "configure")
+            if construct:
+                component.__init__()  # type: ignore[misc]
+            self.notices.observe(spec.full_name, "configure")
             ok = component.configure()
-        except RtcfError as exc:
-            self.notices.drain()
-            raise fail(f"configure() failed: {exc}", exc) from exc
         except Exception as exc:
+            forget_declarations(component)
             self.notices.drain()
-            raise fail(f"configure() raised {type(exc).__name__}: {exc}", exc) from exc
+            said = (f"configure() failed: {exc}" if isinstance(exc, RtcfError)
+                    else f"configure() raised {type(exc).__name__}: {exc}")
+            raise _failed(spec, said, exc) from exc
         self.notices.drain()
         if ok is False:
-            raise fail("configure() returned False")
+            forget_declarations(component)
+            return False
         try:  # the launch file's deadline/NAME replaces the component's
             spec.policy.apply_deadlines(component._rtcf_inputs)
         except ConfigurationError as exc:
-            raise fail(exc.message) from None
+            forget_declarations(component)
+            raise _failed(spec, exc.message) from None
         component._rtcf_configured = True
         component.params.sealed = True
-        self.entries[full] = Loaded(spec, component, ignore, autostart=spec.autostart)
-        return component
+        return True
 
     def entry(self, name: str) -> Loaded:
         full = normalize_namespace(name) if name.startswith("/") else join("/", name)
@@ -239,6 +265,8 @@ class Components:
             # what a ros2_control controller manager calls its type (rtcf_controllers')
             "ros2_control_type": str(getattr(type(comp), "ros2_control_type", "")),
             "lifecycle": STATE_LABELS[entry.state],
+            # False: loaded unconfigured and never configured since (no ports yet)
+            "configured": bool(comp._rtcf_configured),
             "claims": claimed_topics(comp),  # its claimed command topics
             # its ports of hardware interfaces: (command keys, state keys)
             "interfaces": required_interfaces(comp),
@@ -380,6 +408,26 @@ class Components:
         maps = self.settings.maps_to_ros
         return [a for e in self.entries.values() for a in e.component._rtcf_actions.values()
                 if maps(a.name)]
+
+
+def _failed(spec: ComponentSpec, msg: str, cause: BaseException | None = None
+            ) -> ComponentError:
+    where = spec.location
+    full = spec.full_name
+    err = ComponentError(f"component {full!r}: {msg}", component=full,
+                         file=where.file if where else None, line=where.line if where else None)
+    err.__cause__ = cause
+    return err
+
+
+def forget_declarations(component: Component) -> None:
+    """What a first ``configure`` that failed declared: gone, so that the next one is a
+    first one again (it may declare other ports)."""
+    for table in (component._rtcf_inputs, component._rtcf_outputs, component._rtcf_actions,
+                  component._rtcf_guards, component._rtcf_interfaces, component._rtcf_bound):
+        table.clear()
+    component._rtcf_claims.clear()
+    component.params.declared = {}
 
 
 def _port_info(port: Any) -> dict[str, Any]:

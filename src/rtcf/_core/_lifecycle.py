@@ -22,7 +22,9 @@ runs, or at once between runs):
 * ``configure`` (unconfigured → inactive): the ``configure`` hook, again. It must
   declare the same ports and tunable parameters as the first time: the wiring, the
   middleware mapping and the tools' view of the parameters were made for them.
-  It gets the same port and tunable objects back (values kept).
+  It gets the same port and tunable objects back (values kept). A component loaded
+  unconfigured (``ComponentSpec.unconfigured``) runs its first ``configure`` here:
+  its ports and tunables are declared then, and the graph is resolved again.
 * ``cleanup`` (inactive → unconfigured): ``cleanup``.
 * ``activate`` (inactive → active): ``start``; then the component's ``update`` is
   in the schedule from the next iteration on.

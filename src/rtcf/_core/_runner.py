@@ -30,7 +30,7 @@ from ._components import Components, ComponentSpec
 from ._containment import Containment
 from ._deadlines import DeadlineWatch
 from ._errors import ComponentError, RtcfError
-from ._executor import StopFlag
+from ._executor import CONTROL, STOP, StopFlag
 from ._faults import Fault, SafeStopOutcome
 from ._graph import Graph, GraphNode
 from ._hardware_loop import HardwareLoop
@@ -100,9 +100,8 @@ class Runner:
         self._schedule = Schedule(
             self._components, self._topology, self.settings, self.clock, self.state
         )
-        self._transitions = Transitions(
-            self._components, self.state, self._notices, self._schedule.replan
-        )
+        self._transitions = Transitions(self._components, self.state, self._notices,
+                                        self._schedule.replan, lambda: self._invalidate(CONTROL))
         self._containment = Containment(
             name,
             self._components,
@@ -158,7 +157,8 @@ class Runner:
         self._components.log_level = level
 
     def load(self, spec: ComponentSpec) -> Component:
-        """Construct and configure a component; the loop re-resolves before it next runs."""
+        """Construct and configure a component (construct only: ``spec.unconfigured``);
+        the loop re-resolves before it next runs."""
         component = self._components.load(spec, self.lane)
         self._invalidate()
         return component
@@ -364,12 +364,12 @@ class Runner:
         """Compile the plan again before the next run (new handovers were bound)."""
         self._invalidate()
 
-    def _invalidate(self) -> None:
+    def _invalidate(self, reason: int = STOP) -> None:
         """What the plan is built from changed: resolve and compile again before the
-        next use."""
+        next use (a first configure's ports: the run ends with CONTROL, to run again)."""
         if self.state.running:
             # loading or unloading stops the loop: it must not call a stale schedule
-            self._loop.stop_flag.set()
+            self._loop.stop_flag.set(reason)
         self._topology.invalidate()
         self._schedule.invalidate()
 

@@ -52,7 +52,10 @@ class Transitions:
     """Runs the loaded components' lifecycle transitions and tells the listeners.
 
     ``replan`` swaps the plan of the active components into the loop (the
-    schedule's): called when a component leaves or joins the active ones.
+    schedule's): called when a component leaves or joins the active ones. ``rewire``
+    resolves the graph again before the loop next runs (and ends a running loop, to
+    run again on the new plan): called when a component loaded unconfigured has
+    declared its ports in its first configure.
     """
 
     def __init__(
@@ -61,11 +64,13 @@ class Transitions:
         state: LoopState,
         notices: Notices,
         replan: Callable[[], None],
+        rewire: Callable[[], None] | None = None,
     ) -> None:
         self._components = components
         self._state = state
         self._notices = notices
         self._replan = replan
+        self._rewire = rewire or replan
         # told of every lifecycle change of a component: a transition, a fault's take-out
         self.listeners: list[Callable[[str, TransitionOutcome], None]] = []
         # the run's hardware: activation claims a component's command interfaces, every
@@ -107,10 +112,13 @@ class Transitions:
         else:
             running = self._state.running
             self._state.running = False  # hooks, not update: self.log.nonrt is fine
+            first = not entry.component._rtcf_configured  # loaded unconfigured
             try:
                 outcome = self._transition(entry, tid)
             finally:
                 self._state.running = running
+            if first and entry.component._rtcf_configured:  # its ports are new: rewire
+                self._rewire()
         level = LogLevel.INFO if outcome.ok else LogLevel.ERROR
         self._notices.log(level, full, "lifecycle: " + outcome.describe())
         if outcome.result != REFUSED:
@@ -232,7 +240,9 @@ class Transitions:
         if start == ACTIVE:
             self._replan()  # out of the schedule before its hooks run
         cleanup_tried = False
-        if tid == CONFIGURE:
+        if tid == CONFIGURE and not entry.component._rtcf_configured:
+            result, reason = self._configure_first(entry)
+        elif tid == CONFIGURE:
             result, reason = self._reconfigure(entry)
         elif tid == CLEANUP:
             result, reason = self._hook(entry, "cleanup")
@@ -279,6 +289,16 @@ class Transitions:
         if ok is False:
             return FAILURE, f"{hook}() returned False"
         return SUCCESS, ""
+
+    def _configure_first(self, entry: Loaded) -> tuple[str, str]:
+        """configure() the first time (a component loaded unconfigured): its ports and
+        tunables are declared now, as at a load."""
+        try:
+            if self._components.configure_first(entry):
+                return SUCCESS, ""
+        except ComponentError as exc:
+            return ERROR, exc.message
+        return FAILURE, "configure() returned False"
 
     def _reconfigure(self, entry: Loaded) -> tuple[str, str]:
         """configure() again: it must declare the ports and tunables of the first time."""

@@ -115,11 +115,13 @@ def controller_params(
 def controller_spec(
     name: str, namespace: str, type_name: str, params: dict[str, Any], *,
     remaps: Sequence[tuple[str, str]] = (), autostart: bool = True,
-    location: Location | None = None,
+    location: Location | None = None, unconfigured: bool = False,
 ) -> ComponentSpec:
     """The load request of controller ``name`` (in ``namespace``, its controller
     manager's) of ros2_control type ``type_name``; a ConfigurationError when the type is
-    not installed or a parameter is refused."""
+    not installed or a parameter is refused (``on_error``, ``fallback``, ``update_rate``,
+    ``lane``: what the runner reads, checked here). ``unconfigured``: loaded as
+    ros2_control's load_controller leaves it (its configure not run)."""
     module, class_name = resolve(type_name)
     # ROS 2 nests parameter names with '.', rtcf's tree with '/'
     tree = {key.replace(".", "/"): value for key, value in params.items() if key != "type"}
@@ -127,6 +129,7 @@ def controller_spec(
     return ComponentSpec(
         name=name, module=module, class_name=class_name, namespace=namespace, params=tree,
         remaps=list(remaps), location=location, autostart=autostart,
+        unconfigured=unconfigured,
         policy=FailurePolicy.from_params(tree, full),  # on_error, fallback
         rate=Rate.from_params(tree, full),  # update_rate, as ros2_control's
         lane=lane_from_params(tree, full),

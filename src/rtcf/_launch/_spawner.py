@@ -7,7 +7,8 @@ of the runner whose controller manager the spawner names, as the spawner's servi
 calls would make it: the class installed for NAME's type (:mod:`._controller_types`),
 named NAME in the controller manager's namespace, configured with its section's
 ``ros__parameters`` (the runner's files, then ``-p`` files, later winning), and
-active from the start unless ``--inactive`` (then configured and left inactive).
+active from the start unless ``--inactive`` (then configured and left inactive) or
+``--load-only`` (then loaded unconfigured: its configure not run).
 ``--controller-ros-args`` (remaps ``-r``, parameters ``-p``, ``--params-file``) are
 the controller node's own, as the controller manager gives them to it: the
 component's remaps, and parameters that override its sections'.
@@ -45,10 +46,9 @@ _WITH_VALUE = (*_KEYS, *_IGNORED_WITH_VALUE)
 _IGNORED_FLAGS = ("-u", "--unload-on-kill", "--switch-asap", "--no-switch-asap")
 # what --activate-as-group asks for is what rtcf does anyway: every controller of the
 # file starts in the loop's first iteration, together
-_SERVED_FLAGS = ("--inactive", "--activate-as-group")
+_SERVED_FLAGS = ("--inactive", "--activate-as-group", "--load-only")
 # Options rtcf cannot honour: an error, with what to do instead.
 _REFUSED = {
-    "--load-only": "rtcf configures what it loads; use --inactive",
     "--controller": "the advanced per-controller form is not read; use one spawner node "
                     "per set of options",
     "--ros-args": "give the spawner's ROS arguments as <remap>/<param> of the runner",
@@ -87,6 +87,7 @@ class SpawnRequest:
     manager: str  # the controller manager's full name
     param_files: list[str] = field(default_factory=list)
     inactive: bool = False
+    load_only: bool = False  # loaded unconfigured (ComponentSpec.unconfigured)
     type_name: str = ""  # -t/--controller-type (Humble): the type of every NAME
     ignored: list[str] = field(default_factory=list)  # options that change nothing here
     # --controller-ros-args, for every NAME: its node's remaps, --params-file files and
@@ -134,7 +135,7 @@ def parse(node: NodeDescription) -> SpawnRequest:
             flags.add(word)
         else:
             raise _error(node, f"unknown option {word!r} in args; rtcf reads NAME..., "
-                               "--inactive, --activate-as-group, -p/--param-file, "
+                               "--inactive, --load-only, --activate-as-group, -p/--param-file, "
                                "-c/--controller-manager, -n/--namespace, "
                                "-t/--controller-type and --controller-ros-args")
     if not names:
@@ -148,7 +149,7 @@ def parse(node: NodeDescription) -> SpawnRequest:
         if not os.path.isfile(path):
             raise _error(node, f"-p/--param-file {path!r} does not exist")
     request = SpawnRequest(names, manager, files, "--inactive" in flags,
-                           values.get("t", [""])[-1], ignored)
+                           "--load-only" in flags, values.get("t", [""])[-1], ignored)
     for text in values.get("ros_args", []):  # repeated: each adds to the others
         _controller_ros_args(node, text, request)
     return request
@@ -190,7 +191,8 @@ def controller_specs(node: NodeDescription, request: SpawnRequest,
         try:
             specs.append(controller_spec(
                 name, namespace, type_name, params, remaps=request.options.remaps,
-                autostart=not request.inactive, location=node.location))
+                autostart=not (request.inactive or request.load_only), location=node.location,
+                unconfigured=request.load_only))
         except ConfigurationError as exc:
             raise _error(node, f"controller {name!r}: {exc.message}") from None
     return specs

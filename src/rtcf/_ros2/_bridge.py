@@ -428,6 +428,12 @@ class Ros2Bridge:
         self._faces[full] = ComponentFace(node, info, runner, default, runner, announced=True)
         self.executor.add_node(node)
 
+    def component_configured(self, info: dict[str, Any], runner: WorkerRunner) -> None:
+        """A component loaded unconfigured was configured: its tunables, on its node."""
+        face = self._faces.get(str(info["name"]))
+        if face is not None:
+            face.declare_tunables(info)
+
     def parameter_set(self, name: str, value: Any) -> None:
         """A component's params.set(): a parameter of the component's node (its private
         ones), else of the runner's node; declared if new."""

@@ -13,11 +13,13 @@ controller manager (Jazzy) does:
   the entry-point group ``rtcf.controllers``). The runner loads it while its loop
   runs, as an rt_launcher's component (its main thread's request queue), named
   ``name`` in the controller manager's namespace, with its parameters from the
-  section of its own node name. rtcf configures a component when it loads it; a
-  controller is then cleaned up at once, so that it is ``unconfigured`` as
-  ros2_control leaves it, and never started by the loop on its own.
+  section of its own node name. It is loaded unconfigured
+  (``ComponentSpec.unconfigured``): constructed, its parameters set, its
+  ``configure`` not run, no ports yet, never started by the loop on its own; as
+  ros2_control leaves it (on_init, no on_configure).
 * ``configure_controller``: the lifecycle ``configure`` (``cleanup`` first from
-  ``inactive``, as ros2_control does).
+  ``inactive``, as ros2_control does). The first one declares the controller's
+  ports, so it is served between two runs as a load is (the graph resolved again).
 * ``unload_controller``: refused while the controller is active.
 * ``list_controller_types``: every installed type.
 
@@ -131,14 +133,14 @@ class ControllerLoading:
                 "load requests")
         try:
             spec = controller_spec(name, self._namespace, type_name, params,
-                                   remaps=options.remaps, autostart=False)
+                                   remaps=options.remaps, autostart=False, unconfigured=True)
             self._runner.admits("loads", spec.module, full, spec.class_name)
         except RtcfError as exc:
             return self._error(f"Could not load controller '{name}': {exc}")
         done = queue.submit("load", spec)
         if not done.ok:
             return self._error(f"Could not load controller '{name}': {done.reason}")
-        return self._transition(name, "cleanup", "load")
+        return True
 
     def _found(self, name: str, verb: str, doing: str) -> str | None:
         """The controller's state, ``doing`` logged first; None (and the error logged)
@@ -158,6 +160,8 @@ class ControllerLoading:
             return self._error(f"Controller '{name}' can not be configured from '{state}' state.")
         if state == "inactive" and not self._transition(name, "cleanup", "configure"):
             return False
+        # the first one declares the ports: served between two runs as a load is
+        # (WorkerRunner.change_state)
         return self._transition(name, "configure", "configure")
 
     def _do_unload(self, name: str) -> bool:

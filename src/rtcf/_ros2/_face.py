@@ -81,14 +81,8 @@ class ComponentFace:
         self.tuner = tuner
         self.default_level = default_level
         self.level = int(info.get("log_level") or default_level)
-        self.specs = {
-            t["name"]: TunableSpec.from_dict({k: v for k, v in t.items() if k != "value"})
-            for t in info.get("tunables", [])
-        }
-        for t in info.get("tunables", []):
-            if node.has_parameter(t["name"]):  # a launcher's -p override, declared untyped
-                node.undeclare_parameter(t["name"])
-            node.declare_parameter(t["name"], t["value"], _descriptor(self.specs[t["name"]]))
+        self.specs: dict[str, TunableSpec] = {}
+        self.declare_tunables(info)
         for name, value in _flatten(info.get("parameters") or {}):
             if name in self.specs or node.has_parameter(name):
                 continue
@@ -107,6 +101,27 @@ class ComponentFace:
         )
 
     # -- parameters ------------------------------------------------------------------
+    def declare_tunables(self, info: dict[str, Any]) -> None:
+        """The component's tunables as parameters of its node: when it is loaded, and
+        after its first configure when it was loaded unconfigured (they are declared
+        there). A parameter of the same name, read-only as a private parameter is, stays
+        so (its value then changes by a cleanup and configure)."""
+        from rclpy.exceptions import ParameterImmutableException
+
+        node = self.node
+        for t in info.get("tunables", []):
+            name = t["name"]
+            if name in self.specs:
+                continue
+            spec = TunableSpec.from_dict({k: v for k, v in t.items() if k != "value"})
+            if node.has_parameter(name):  # a launcher's -p override, declared untyped
+                try:
+                    node.undeclare_parameter(name)
+                except ParameterImmutableException:
+                    continue
+            self.specs[name] = spec
+            node.declare_parameter(name, t["value"], _descriptor(spec))
+
     def _on_set(self, params: list[Any]) -> Any:
         from rcl_interfaces.msg import SetParametersResult
 

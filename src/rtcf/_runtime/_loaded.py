@@ -54,6 +54,15 @@ class LoadedComponents:
             if t["name"] == name:
                 t["value"] = value
 
+    def replace(self, component: str, info: dict[str, Any]) -> dict[str, Any] | None:
+        """A component as the worker describes it now (its first configure declared its
+        ports); the entry is updated in place (the main lane's runner holds it too)."""
+        with self.lock:
+            entry = self.components.get(component)
+            if entry is not None:
+                entry.update({k: v for k, v in info.items() if k != "launcher"})
+        return entry
+
     def set_lifecycle(self, component: str, label: str) -> None:
         info = self.components.get(component)
         if info is not None:

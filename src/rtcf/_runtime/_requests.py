@@ -8,6 +8,11 @@ runs the loop again. Shared by the ROS 1 and the ROS 2 rt_runner.
 A lifecycle transition needs no stop: it reaches the running loop as an update
 record (``WorkerRunner.change_state``). Only when no loop runs must the main thread
 hand it over, so the queue wakes it with a ``sync`` request, which stops nothing.
+The first ``configure`` of a component loaded unconfigured (ros2_control's
+``load_controller``) declares its ports, so the graph is resolved again: asked for
+from another thread (``_updates.queued_first_configure``), a ``configure`` request serves
+it between two runs, as a load is, and answers once the supervisor knows the new
+ports (``outcome``: the transition's).
 """
 
 from __future__ import annotations
@@ -49,6 +54,7 @@ class Request:
         self.ok = False
         self.reason = ""
         self.abandoned = False  # its caller stopped waiting: not served any more
+        self.outcome: Any = None  # a configure's TransitionOutcome
 
 
 class RequestQueue:
@@ -148,6 +154,8 @@ def serve_request(
             runner.unload(full)
             req.reason = unloaded(full)
             say(f"unloaded {full}")
+        elif req.kind == "configure":  # a first configure: between two runs
+            req.outcome = runner.change_state(req.payload, "configure")
         elif req.kind == "activate":
             runner.activate()
         elif req.kind == "deactivate":
@@ -163,3 +171,4 @@ def serve_request(
         say(f"refused {req.kind}: {req.reason}")
     finally:
         req.done.set()
+

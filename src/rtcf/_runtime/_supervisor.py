@@ -43,10 +43,11 @@ from ._heap import fill_numpy_cache
 from ._lane_workers import LaneWorkers
 from ._live_status import LiveReport, LiveStatus, live_aggregate, live_status_of
 from ._loaded import LoadedComponents
+from ._middleware import parameter_set
 from ._port_channels import MailboxFanOut, MappedPort
 from ._recording import RecordSink
-from ._runs import RunChannels, note
-from ._updates import WorkerUpdates, change_states
+from ._runs import RunChannels
+from ._updates import WorkerUpdates, change_states, queued_first_configure
 from ._worker_process import WorkerProcess, keep_off_cpus
 
 
@@ -195,21 +196,11 @@ class WorkerRunner:
         self.bridge.diagnostics(self.name, status, self._live_aggregate())
 
     def _on_event(self, event: str, payload: Any) -> None:
-        if event == "parameter_set":
-            self._parameter_set(*payload)
+        if event == "parameter_set":  # a component's params.set(): kept, and told
+            self.parameters.set(*payload)
+            parameter_set(self.bridge, self.log_sink, *payload)
         elif event == "started":
             self._on_started(payload)
-
-    def _parameter_set(self, name: str, value: Any) -> None:
-        """A component set a parameter: keep it, and tell the middleware's parameters."""
-        self.parameters.set(name, value)
-        tell = getattr(self.bridge, "parameter_set", None)
-        if tell is not None:
-            try:
-                tell(name, value)
-            except Exception as exc:  # the loop goes on; say why the middleware missed it
-                self.log_sink(note(30, f"parameter {name} was set to {value!r} in the "
-                                       f"runner but not in the middleware: {exc}"))
 
     def kill(self) -> None:
         """Kill the worker at once (SIGKILL): no hook runs any more."""
@@ -394,13 +385,32 @@ class WorkerRunner:
         applies its components' at the start of one iteration, in the order given
         (``strict``: all or none, rtcf._core._switching); the outcomes come in that order."""
         self.admission.refuse_if_locked("lifecycle transitions")
+        queued = queued_first_configure(self.requests, self.components, transitions,
+                                        threading.get_ident() == self._owner)
+        if queued is not None:  # a first configure: served between two runs, as a load
+            return [queued]
         asked = []
         for component, transition in transitions:
             owner = self._owner_of(component)
             full = str(owner._loaded.find(component)["name"])
             asked.append((owner._updates, owner._hand_over, full, transition))
-        return change_states(asked, 10.0 + 3.0 / self.settings.frequency
-                             if timeout is None else timeout, strict)
+        outcomes = change_states(asked, 10.0 + 3.0 / self.settings.frequency
+                                 if timeout is None else timeout, strict)
+        if threading.get_ident() == self._owner and not self.loop_running:
+            self._configured()  # (else before the next run)
+        return outcomes
+
+    def _configured(self) -> None:
+        """Describe again what first configures declared (main thread, no loop running)."""
+        tell = getattr(self.bridge, "component_configured", None)  # (ROS 2's)
+        described = [(worker, full) for worker in (self, *self._lanes.workers.values())
+                     for full in worker._updates.take_configured()]
+        for worker, full in described:
+            info = worker._loaded.replace(full, worker.call("describe_component", full))
+            if info is not None and tell is not None:
+                tell(info, self)
+        if described:
+            self.refresh_introspection()
 
     def _hand_over(self) -> None:
         """A transition waits: when no loop reads the record, the main thread hands it
@@ -425,6 +435,7 @@ class WorkerRunner:
     def sync(self) -> None:
         """Have the worker apply what waits for it, when no loop runs (main thread)."""
         self._call_all("sync")
+        self._configured()  # a first configure among them: its ports described now
 
     def activate(self) -> None:
         self._call_all("activate")
@@ -477,6 +488,7 @@ class WorkerRunner:
         """Run the loop in the worker until ``iterations`` ran or :meth:`request_stop`;
         with ``record``, every value of the topics it selects goes into it. With lanes,
         every lane's worker runs it, together."""
+        self._configured()
         if any(w.components for w in self._lanes.workers.values()):
             return self._lanes.run(
                 self, iterations, trace, record, bridge=self.bridge,

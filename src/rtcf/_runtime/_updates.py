@@ -19,6 +19,7 @@ from typing import Any
 
 from .._core._errors import RtcfError
 from .._core._lifecycle import (
+    CONFIGURE,
     OUTCOME_RECORD_SIZE,
     OUTCOME_RING_RECORDS,
     REFUSED,
@@ -62,6 +63,8 @@ class WorkerUpdates:
         self._request_numbers = itertools.count(1)
         # told every transition a component went through (a bridge: transition events)
         self.listeners: list[Callable[[str, TransitionOutcome], None]] = []
+        # loaded unconfigured, then configured: its ports and tunables to describe again
+        self.configured: set[str] = set()
 
     def open(self, segment: Callable[[int, str], Segment]) -> Segment:
         """One segment, two rings: updates to the worker, lifecycle outcomes back."""
@@ -117,6 +120,15 @@ class WorkerUpdates:
         with self.lock:
             info["log_level"] = number
             self.post((LOG_LEVEL, str(info["name"]), ""), number)
+
+    def take_configured(self) -> list[str]:
+        """The components loaded unconfigured that their first configure declared ports
+        and tunables for, since the last call (to describe again); the outcomes the
+        worker sent are taken first (main thread)."""
+        self.pump()
+        with self.lock:
+            names, self.configured = sorted(self.configured), set()
+        return names
 
     def unloaded(self, component: str) -> None:
         """The worker unloaded ``component``: its entry and its updates go, and the
@@ -196,6 +208,10 @@ class WorkerUpdates:
                 component = pending.component
             if news:
                 self.loaded.set_lifecycle(component, STATE_LABELS[outcome.end])
+                info = self.loaded.components.get(component)
+                if (outcome.transition == CONFIGURE and outcome.ok and info is not None
+                        and info.get("configured") is False):
+                    self.configured.add(component)
         if news and component:
             for listener in self.listeners:
                 listener(component, outcome)
@@ -250,3 +266,25 @@ class PendingTransition:
         self.transition = transition
         self.done = threading.Event()
         self.outcome: TransitionOutcome | None = None
+
+
+def queued_first_configure(
+    requests: Any, components: dict[str, dict[str, Any]],
+    transitions: Sequence[tuple[str, int | str]], on_main: bool,
+) -> TransitionOutcome | None:
+    """The first configure of a component loaded unconfigured (it declares its ports: the
+    graph is resolved again), asked for from a thread other than the main one (``not
+    on_main``): served by the runner's request queue (``requests``, :mod:`._requests`)
+    between two runs, as a load is, so that the next run maps the new ports. None when
+    it is not one, or no queue serves."""
+    if on_main or requests is None or len(transitions) != 1:
+        return None
+    component, transition = transitions[0]
+    info = components.get("/" + component.lstrip("/"))
+    if (str(transition) not in ("configure", str(CONFIGURE)) or info is None
+            or info.get("configured") is not False):
+        return None
+    full = str(info["name"])
+    req = requests.submit("configure", full)
+    outcome: TransitionOutcome | None = req.outcome
+    return outcome or refused(UNKNOWN, f"component {full!r}: configure: {req.reason}")

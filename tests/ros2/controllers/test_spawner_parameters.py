@@ -43,10 +43,17 @@ controller_manager:
     update_rate: 100
     joint_state_broadcaster:
       type: {JSB_TYPE}
+    parked:
+      type: {JSB_TYPE}
 joint_state_broadcaster:
   ros__parameters:
     joints: [shoulder, elbow]
     interfaces: [position]
+parked:
+  ros__parameters:
+    joints: [left, right]
+    interfaces: [position]
+    use_local_topics: true
 """
 # the spawner's -p file: its section is the new controller's (the runner knows nothing
 # of it); -p in the node options overrides its frame_id
@@ -101,6 +108,7 @@ def _start(kind: str, tmp_path: Path) -> subprocess.Popen[str]:
     launch.write_text(f"""<launch>
       {runner}<param from="{yaml}"/></node>
       <node pkg="controller_manager" exec="spawner" args="joint_state_broadcaster"/>
+      <node pkg="controller_manager" exec="spawner" args="parked --load-only"/>
     </launch>""")
     proc = subprocess.Popen(
         [sys.executable, "-m", "rtcf", "launch", str(launch), "--middleware", "ros2",
@@ -148,7 +156,9 @@ def test_the_jazzy_spawners_sequence_loads_while_the_loop_runs(
                   _ask(ros_node, ListControllers, "list_controllers").controller}
         assert listed["late"] == ("unconfigured", JSB_TYPE)
         assert listed["joint_state_broadcaster"][0] == "active"
+        configuring = time.monotonic()
         assert _ask(ros_node, ConfigureController, "configure_controller", name="late").ok
+        configured = time.monotonic()
         assert _ask(ros_node, SwitchController, "switch_controller",
                     activate_controllers=["late"],
                     strictness=SwitchController.Request.STRICT).ok
@@ -164,14 +174,29 @@ def test_the_jazzy_spawners_sequence_loads_while_the_loop_runs(
         print(f"{kind}: load_controller took {loaded - loading:.3f} s; the longest gap "
               f"between /joint_states messages around it {pause * 1000:.1f} ms")
         assert pause < 2.0
+        # and while its first configure was served (its ports: the graph resolved again)
+        pause = max(b - a for a, b in pairwise(arrivals)
+                    if b >= configuring and a <= configured)  # the gaps it overlaps
+        print(f"{kind}: its first configure_controller took {configured - configuring:.3f} "
+              f"s; the longest gap around it {pause * 1000:.1f} ms")
+        assert pause < 2.0
 
         # unloaded once deactivated
         assert _ask(ros_node, SwitchController, "switch_controller",
                     deactivate_controllers=["late"],
                     strictness=SwitchController.Request.STRICT).ok
         assert _ask(ros_node, UnloadController, "unload_controller", name="late").ok
-        listed = {c.name for c in _ask(ros_node, ListControllers, "list_controllers").controller}
-        assert listed == {"joint_state_broadcaster"}
+        listed = {c.name: c.state for c in
+                  _ask(ros_node, ListControllers, "list_controllers").controller}
+        if kind == "rt_runner":
+            assert listed == {"joint_state_broadcaster": "active"}
+        else:  # the spawner's --load-only: loaded, not configured; configured on request
+            assert listed == {"joint_state_broadcaster": "active", "parked": "unconfigured"}
+            assert _ask(ros_node, ConfigureController, "configure_controller",
+                        name="parked").ok
+            listed = {c.name: c.state for c in
+                      _ask(ros_node, ListControllers, "list_controllers").controller}
+            assert listed["parked"] == "inactive"
     finally:
         proc.send_signal(2)
         try:
