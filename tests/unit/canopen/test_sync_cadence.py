@@ -26,18 +26,7 @@ from rtcf_canopen._exchange import (  # noqa: E402
     PdoLayout,
 )
 
-URDF = """<robot name="r"><link name="a"/><link name="b"/><link name="c"/>
-  <joint name="j1" type="revolute"><parent link="a"/><child link="b"/>
-    <limit lower="-9" upper="9" velocity="9" effort="9"/></joint>
-  <joint name="j2" type="revolute"><parent link="b"/><child link="c"/>
-    <limit lower="-9" upper="9" velocity="9" effort="9"/></joint>
-  <ros2_control name="drives" type="system"{rw_rate}>
-    <hardware><plugin>rtcf_canopen/Cia402System</plugin>{params}</hardware>
-    <joint name="j1"><param name="node_id">2</param><command_interface name="position"/>
-      <state_interface name="position"/><state_interface name="velocity"/></joint>
-    <joint name="j2"><param name="node_id">3</param><command_interface name="position"/>
-      <state_interface name="position"/><state_interface name="velocity"/></joint>
-  </ros2_control></robot>"""
+from ._urdf import two_drives  # noqa: E402
 
 
 def _layout(node: int) -> DriveLayout:
@@ -72,8 +61,8 @@ def make(monkeypatch):
         made.extend((master, drive))
         monkeypatch.setattr(_system, "open_drives", lambda config: (
             canopen.Network(master), [_layout(2), _layout(3)]))
-        info = parse(URDF.format(params=params,
-                                 rw_rate=f' rw_rate="{rw_rate}"' if rw_rate else ""))[0]
+        info = parse(two_drives(hardware=params,
+                                attrs=f' rw_rate="{rw_rate}"' if rw_rate else ""))[0]
         logger = logging.getLogger(f"test_sync_cadence.{channel}")
         logger.propagate = False
         logger.setLevel(logging.DEBUG)

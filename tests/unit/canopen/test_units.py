@@ -30,22 +30,11 @@ from rtcf_canopen._exchange import (  # noqa: E402
 )
 from rtcf_canopen._units import Units  # noqa: E402
 
-URDF = """<robot name="r"><link name="a"/><link name="b"/><link name="c"/>
-  <joint name="j1" type="revolute"><parent link="a"/><child link="b"/>
-    <limit lower="-9" upper="9" velocity="9" effort="9"/></joint>
-  <joint name="j2" type="revolute"><parent link="b"/><child link="c"/>
-    <limit lower="-9" upper="9" velocity="9" effort="9"/></joint>
-  <ros2_control name="drives" type="system">
-    <hardware><plugin>rtcf_canopen/Cia402System</plugin></hardware>
-    <joint name="j1"><param name="node_id">2</param>
-      <param name="scale_pos_to_dev">4096</param><param name="offset_pos_to_dev">10</param>
-      <param name="offset_pos_from_dev">0.5</param>
-      <command_interface name="position"/>
-      <state_interface name="position"/><state_interface name="velocity"/></joint>
-    <joint name="j2"><param name="node_id">3</param>
-      <command_interface name="velocity"/>
-      <state_interface name="position"/><state_interface name="velocity"/></joint>
-  </ros2_control></robot>"""
+from ._urdf import two_drives  # noqa: E402
+
+URDF = two_drives(j1='<param name="scale_pos_to_dev">4096</param>'
+                       '<param name="offset_pos_to_dev">10</param>'
+                       '<param name="offset_pos_from_dev">0.5</param>', j2_command="velocity")
 
 
 def _layout(node: int) -> DriveLayout:
