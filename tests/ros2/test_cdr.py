@@ -177,7 +177,9 @@ def test_the_codec_passes_the_bytes_and_checks_the_type():
     js = Serialized(JointState, name=["a"], position=1)
     assert codec.encode(js) is js._cdr  # no copy: the channel copies it at once
     assert codec.decode(bytes(codec.encode(js))) == js.to_message()
-    assert codec.encode(js.to_message()) == serialize_message(js.to_message())
+    # a plain message goes through rclpy: the same data, and padding that rclpy leaves
+    # uninitialised (two of its serialisations of one message may differ there)
+    assert js.same_but_padding(bytes(codec.encode(js.to_message())))
     with pytest.raises(TypeError, match="port of nav_msgs/msg/Odometry"):
         codec_for(Odometry).encode(js)
 
